@@ -1,0 +1,259 @@
+//! Scene pieces and the headless mode shared by the examples (and by the GPU tests, which include
+//! this file), so no example copies them.
+#![allow(
+    dead_code,
+    reason = "each example uses only part of the shared helpers"
+)]
+
+pub mod headless;
+
+use std::path::PathBuf;
+
+use bevy::{
+    asset::RenderAssetUsages,
+    camera::{Exposure, RenderTarget},
+    core_pipeline::tonemapping::Tonemapping,
+    light::{Atmosphere, atmosphere::ScatteringMedium, light_consts::lux},
+    pbr::AtmosphereSettings,
+    prelude::*,
+    render::{
+        RenderPlugin,
+        render_resource::{Extent3d, TextureDimension, TextureFormat, TextureUsages},
+        view::screenshot::{Screenshot, ScreenshotCaptured},
+    },
+    window::ExitCondition,
+    winit::WinitPlugin,
+};
+
+/// Command-line options every example understands.
+#[derive(Debug, Clone, Resource)]
+pub struct ExampleArgs {
+    /// Render without a window and write one PNG.
+    pub headless: bool,
+    /// Where the headless frame goes.
+    pub out: PathBuf,
+    /// Frames to run before the capture (pipelines and atmosphere LUTs need a few).
+    pub frames: u32,
+    /// Headless image size in pixels.
+    pub size: UVec2,
+}
+
+impl ExampleArgs {
+    /// Parses `--headless`, `--out PATH`, `--frames N`, `--width W` and `--height H` from the
+    /// process arguments. Unknown arguments are an error, printed with the usage line.
+    pub fn from_env(example: &str) -> Result<Self, String> {
+        let mut args = Self {
+            headless: false,
+            out: PathBuf::from(format!("{example}.png")),
+            frames: 8,
+            size: UVec2::new(1280, 720),
+        };
+        let mut it = std::env::args().skip(1);
+        while let Some(arg) = it.next() {
+            let mut value = |name: &str| it.next().ok_or_else(|| format!("{name} needs a value"));
+            match arg.as_str() {
+                "--headless" => args.headless = true,
+                "--out" => args.out = PathBuf::from(value("--out")?),
+                "--frames" => args.frames = parse(&value("--frames")?, "--frames")?,
+                "--width" => args.size.x = parse(&value("--width")?, "--width")?,
+                "--height" => args.size.y = parse(&value("--height")?, "--height")?,
+                other => {
+                    return Err(format!(
+                        "unknown argument {other:?}\nusage: {example} [--headless] [--out PATH.png] \
+                         [--frames N] [--width W] [--height H]"
+                    ));
+                }
+            }
+        }
+        if args.size.x == 0 || args.size.y == 0 || args.frames == 0 {
+            return Err("--width, --height and --frames must be at least 1".into());
+        }
+        Ok(args)
+    }
+}
+
+fn parse<T: std::str::FromStr>(text: &str, name: &str) -> Result<T, String> {
+    text.parse()
+        .map_err(|_| format!("{name}: {text:?} is not a valid number"))
+}
+
+/// `DefaultPlugins` set up for a window, or for a headless run that owns no window and compiles
+/// pipelines synchronously so the captured frame is complete.
+pub fn default_plugins(args: &ExampleArgs, title: &str) -> PluginGroupBuilder {
+    if args.headless {
+        DefaultPlugins
+            .set(WindowPlugin {
+                primary_window: None,
+                exit_condition: ExitCondition::DontExit,
+                ..default()
+            })
+            .set(RenderPlugin {
+                synchronous_pipeline_compilation: true,
+                ..default()
+            })
+            .disable::<WinitPlugin>()
+            .add(bevy::app::ScheduleRunnerPlugin::run_loop(
+                std::time::Duration::ZERO,
+            ))
+    } else {
+        DefaultPlugins.set(WindowPlugin {
+            primary_window: Some(Window {
+                title: title.into(),
+                ..default()
+            }),
+            ..default()
+        })
+    }
+}
+
+use bevy::app::PluginGroupBuilder;
+
+/// Makes the camera marked [`MainCamera`] render into an image and, after
+/// [`ExampleArgs::frames`] frames, writes that image to [`ExampleArgs::out`] and exits.
+pub struct HeadlessCapturePlugin;
+
+/// Marks the camera the headless capture reads.
+#[derive(Component)]
+pub struct MainCamera;
+
+#[derive(Resource)]
+struct CaptureTarget(Handle<Image>);
+
+impl Plugin for HeadlessCapturePlugin {
+    fn build(&self, app: &mut App) {
+        app.add_systems(PostStartup, redirect_camera_to_image)
+            .add_systems(Update, capture_after_frames);
+    }
+}
+
+fn redirect_camera_to_image(
+    mut commands: Commands,
+    args: Res<ExampleArgs>,
+    mut images: ResMut<Assets<Image>>,
+    cameras: Query<Entity, With<MainCamera>>,
+) {
+    let target = images.add(render_target_image(
+        args.size,
+        TextureFormat::Rgba8UnormSrgb,
+    ));
+    for camera in &cameras {
+        commands
+            .entity(camera)
+            .insert(RenderTarget::Image(target.clone().into()));
+    }
+    commands.insert_resource(CaptureTarget(target));
+}
+
+fn capture_after_frames(
+    mut commands: Commands,
+    mut frame: Local<u32>,
+    args: Res<ExampleArgs>,
+    target: Res<CaptureTarget>,
+) {
+    *frame += 1;
+    if *frame != args.frames {
+        return;
+    }
+    let out = args.out.clone();
+    commands.spawn(Screenshot::image(target.0.clone())).observe(
+        move |captured: On<ScreenshotCaptured>, mut exit: MessageWriter<AppExit>| {
+            let status = match captured
+                .image
+                .clone()
+                .try_into_dynamic()
+                .map_err(|e| e.to_string())
+                .and_then(|img| img.to_rgb8().save(&out).map_err(|e| e.to_string()))
+            {
+                Ok(()) => {
+                    info!("wrote {}", out.display());
+                    AppExit::Success
+                }
+                Err(e) => {
+                    error!("cannot write {}: {e}", out.display());
+                    AppExit::error()
+                }
+            };
+            exit.write(status);
+        },
+    );
+}
+
+/// An image a camera can render into and tests can copy back.
+pub fn render_target_image(size: UVec2, format: TextureFormat) -> Image {
+    let mut image = Image::new_uninit(
+        Extent3d {
+            width: size.x,
+            height: size.y,
+            depth_or_array_layers: 1,
+        },
+        TextureDimension::D2,
+        format,
+        RenderAssetUsages::RENDER_WORLD,
+    );
+    image.texture_descriptor.usage |=
+        TextureUsages::RENDER_ATTACHMENT | TextureUsages::COPY_SRC | TextureUsages::TEXTURE_BINDING;
+    image
+}
+
+/// Sun elevation of the sky scene, degrees above the horizon.
+pub const SKY_SCENE_SUN_ELEVATION_DEG: f32 = 12.0;
+/// Sun azimuth of the sky scene, degrees clockwise from the camera's view direction.
+pub const SKY_SCENE_SUN_AZIMUTH_DEG: f32 = 30.0;
+/// Vertical field of view of the sky scene camera, degrees.
+pub const SKY_SCENE_FOV_DEG: f32 = 60.0;
+
+/// Unit vector toward the sun of the sky scene, in world space (camera looks along -Z).
+pub fn sky_scene_sun_direction() -> Vec3 {
+    let (el, az) = (
+        SKY_SCENE_SUN_ELEVATION_DEG.to_radians(),
+        SKY_SCENE_SUN_AZIMUTH_DEG.to_radians(),
+    );
+    Vec3::new(az.sin() * el.cos(), el.sin(), -az.cos() * el.cos())
+}
+
+/// Spawns the sky scene: Bevy's `Atmosphere` for an Earth-sized planet, a sun (a
+/// `DirectionalLight` with the illuminance of sunlight above the atmosphere), and a 20 km ground
+/// plane at y = 0. The camera comes from [`sky_scene_camera`].
+pub fn spawn_sky_scene(
+    mut commands: Commands,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut materials: ResMut<Assets<StandardMaterial>>,
+    mut media: ResMut<Assets<ScatteringMedium>>,
+) {
+    commands.spawn(Atmosphere::earth(
+        media.add(ScatteringMedium::earth(256, 256)),
+    ));
+    commands.spawn((
+        DirectionalLight {
+            illuminance: lux::RAW_SUNLIGHT,
+            ..default()
+        },
+        Transform::default().looking_to(-sky_scene_sun_direction(), Vec3::Y),
+    ));
+    commands.spawn((
+        Mesh3d(meshes.add(Plane3d::default().mesh().size(20_000.0, 20_000.0))),
+        MeshMaterial3d(materials.add(StandardMaterial {
+            base_color: Color::srgb(0.32, 0.42, 0.22),
+            perceptual_roughness: 0.9,
+            ..default()
+        })),
+    ));
+}
+
+/// The sky scene's camera: 1.8 m above the ground, looking 3° below the horizon along -Z, with
+/// the exposure Bevy's atmosphere example uses for raw sunlight.
+pub fn sky_scene_camera() -> impl Bundle {
+    (
+        Camera3d::default(),
+        Projection::Perspective(PerspectiveProjection {
+            fov: SKY_SCENE_FOV_DEG.to_radians(),
+            ..default()
+        }),
+        Transform::from_xyz(0.0, 1.8, 0.0)
+            .looking_to(Vec3::new(0.0, -(3.0f32.to_radians().tan()), -1.0), Vec3::Y),
+        AtmosphereSettings::default(),
+        Exposure { ev100: 13.0 },
+        Tonemapping::AcesFitted,
+        MainCamera,
+    )
+}

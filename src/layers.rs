@@ -1,0 +1,1068 @@
+//! Cloud layers: the data a game edits and the renderer draws.
+//!
+//! Third stage of the crate's data flow (forecast → [`weather`](crate::weather) → layers →
+//! render). A [`CloudLayer`] is one shell of cloud between two altitudes above the ground. The
+//! renderer fills it with noise and shapes that noise with the layer's numbers:
+//!
+//! - **Where**: [`CloudLayer::base_m`] and [`CloudLayer::top_m`], metres above ground. The renderer
+//!   draws the layer as a spherical shell around the planet centre.
+//! - **How much**: [`CloudLayer::coverage`] is the fraction of the sky the layer covers (0–1). It
+//!   drives the coverage remap of the density model (seed 002, "Density Model":
+//!   `Remap(base, 1 − coverage · weather, 1, 0, 1)`).
+//! - **How dense**: [`CloudLayer::density`] is the extinction coefficient, 1/m, of the densest
+//!   cloud in the layer. The noise density (0–1) scales it.
+//! - **What shape**: [`CloudLayer::profile`] is a [`DensityProfile`]: density against the height
+//!   fraction in the layer (0 at the base, 1 at the top). It plays the part of Aetherius'
+//!   shape-altering curve. In seed 002 ("Density Model") the shape-altering gradient starts as
+//!   two remaps multiplied together, "no density at the bottom, full density somewhere in the
+//!   middle … fades to zero density again at the top". It then becomes a user-drawn curve, sampled
+//!   into an array on the CPU "when the curve is modified" and passed to the shader
+//!   ([`DensityProfile::bake`] does that here). The curve is data, not a formula, so it can be
+//!   edited.
+//! - **How it moves**: [`CloudLayer::wind_m_s`] scrolls the layer's noise and weather map.
+//!   [`CloudLayer::skew`] leans the clouds downwind with height. This is seed 002's "Wind and
+//!   Skew": skew "only displaces the weather map texture and the amount displaced increases with
+//!   height".
+//! - **Weather**: [`CloudLayer::precipitation`] darkens the cloud (0–1) and
+//!   [`CloudLayer::rain_mm_per_h`] is the rain falling from it.
+//! - **Who drives it**: when [`CloudLayer::weather_driven`] is true, the weather mapping
+//!   ([`weather::mapping`](crate::weather::mapping)) rewrites the layer from the forecast. When it
+//!   is false the layer is left alone, and every value is the user's ("play" mode).
+//!
+//! Any number of layers may exist. A layer that [`CloudLayer::is_visible`] says is invisible
+//! (coverage 0, density 0, or no thickness) is not sent to the GPU and costs nothing.
+//!
+//! # Kinds and their defaults
+//!
+//! [`CloudLayer::new`] starts a layer from its [`CloudKind`]'s [`KindDefaults`]:
+//!
+//! | kind | base – top, m above ground | coverage | density, 1/m | weather-map period, m | skew |
+//! |---|---|---|---|---|---|
+//! | Cumulus | 1 000 – 2 200 | 0.4 | 0.07 | 12 000 | 0.1 |
+//! | Stratocumulus | 800 – 1 400 | 0.7 | 0.05 | 20 000 | 0.05 |
+//! | Stratus | 150 – 450 | 0.9 | 0.04 | 40 000 | 0 |
+//! | Altocumulus | 3 000 – 3 500 | 0.5 | 0.03 | 15 000 | 0.05 |
+//! | Altostratus | 3 000 – 5 000 | 0.9 | 0.015 | 40 000 | 0 |
+//! | Cirrus | 8 000 – 9 000 | 0.4 | 0.000 8 | 50 000 | 0.5 |
+//! | Cirrostratus | 7 500 – 8 500 | 0.9 | 0.000 4 | 80 000 | 0.1 |
+//! | Cirrocumulus | 7 000 – 7 400 | 0.4 | 0.001 6 | 15 000 | 0.1 |
+//! | Cumulonimbus | 1 000 – 10 000 | 0.3 | 0.1 | 30 000 | 0.2 |
+//!
+//! - **Altitudes** are typical mid-latitude heights inside the WMO étages (International Cloud
+//!   Atlas, WMO-No. 407: low étage from the surface to 2 km, middle 2–7 km, high 5–13 km in
+//!   temperate regions; the same bands as `shared/formats/meteoblue.md`). Cumulonimbus spans all
+//!   three étages, from a low base to an anvil near the tropopause (seed 000 §3.3.10: "spanning
+//!   over the whole troposphere").
+//! - **Densities** are extinction coefficients from the geometric-optics relation
+//!   `σ ≈ 3·LWC / (2·ρ·r_e)` (Stephens 1978, extinction efficiency ≈ 2). LWC is the liquid (or
+//!   ice) water content, ρ the density of water (or ice) and `r_e` the effective droplet (or
+//!   crystal) radius. The typical values used are: cumulus 0.5 g/m³ at 10 µm, stratocumulus
+//!   0.3 g/m³ at 9 µm, stratus 0.25 g/m³ at 9 µm, altocumulus 0.2 g/m³ at 10 µm, altostratus
+//!   0.1 g/m³ at 10 µm, cumulonimbus 1 g/m³ at 15 µm. The cirrus family uses ice water contents
+//!   of 0.01–0.03 g/m³ with crystals of 30–40 µm. A 1 km cumulus is therefore opaque (optical depth
+//!   ≈ 70) and a 1 km cirrus translucent (≈ 0.8).
+//! - **Coverage, weather-map period and skew** are starting points chosen for the look, not
+//!   measurements. The period is set so that the weather noise holds several clouds of the
+//!   kind's typical size (cumulus cells about 1 km, stratiform sheets tens of km). The skew makes
+//!   cirrus fall streaks and cumulonimbus anvils trail downwind.
+//!
+//! Each kind's vertical profile is in [`DensityProfile::for_kind`].
+
+use std::fmt;
+
+use bevy::prelude::{Component, Reflect, ReflectComponent, ReflectDefault};
+
+/// The cloud genera the crate draws (WMO International Cloud Atlas, WMO-No. 407). Nimbostratus is
+/// left out: as seed 000 §4.2.6 proposes, it is drawn as darkened, thickened altostratus over
+/// stratus (see [`weather::mapping`](crate::weather::mapping)).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Reflect)]
+pub enum CloudKind {
+    /// Detached heaps with flat bases and rounded, billowing tops. Low étage, formed by
+    /// convection; fair weather.
+    #[default]
+    Cumulus,
+    /// Grey or whitish patches, rolls or sheets of rounded masses. Low étage; the most common
+    /// cloud on Earth.
+    Stratocumulus,
+    /// A grey, featureless, uniform sheet with a low base; in contact with the ground it is fog.
+    Stratus,
+    /// Mid-level sheets or patches of small rounded cloudlets, often shaded on one side.
+    Altocumulus,
+    /// A grey, fibrous or uniform mid-level sheet through which the sun shows dimly; often
+    /// precedes rain.
+    Altostratus,
+    /// High, detached, hair-like white filaments of ice crystals.
+    Cirrus,
+    /// A thin, whitish, high veil of ice crystals that may make a halo.
+    Cirrostratus,
+    /// High sheets or patches of very small white cloudlets (ripples, grains).
+    Cirrocumulus,
+    /// Thundercloud: a tall tower from a low, dark base to a flat, spreading anvil near the
+    /// tropopause.
+    Cumulonimbus,
+}
+
+impl CloudKind {
+    /// Every kind, from low to high and then cumulonimbus.
+    pub const ALL: [Self; 9] = [
+        Self::Cumulus,
+        Self::Stratocumulus,
+        Self::Stratus,
+        Self::Altocumulus,
+        Self::Altostratus,
+        Self::Cirrus,
+        Self::Cirrostratus,
+        Self::Cirrocumulus,
+        Self::Cumulonimbus,
+    ];
+
+    /// A lowercase name for messages and JSON output, e.g. `"stratocumulus"`.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Cumulus => "cumulus",
+            Self::Stratocumulus => "stratocumulus",
+            Self::Stratus => "stratus",
+            Self::Altocumulus => "altocumulus",
+            Self::Altostratus => "altostratus",
+            Self::Cirrus => "cirrus",
+            Self::Cirrostratus => "cirrostratus",
+            Self::Cirrocumulus => "cirrocumulus",
+            Self::Cumulonimbus => "cumulonimbus",
+        }
+    }
+
+    /// True for the cirrus family (cirrus, cirrostratus, cirrocumulus): high ice clouds.
+    #[must_use]
+    pub const fn is_cirrus_family(self) -> bool {
+        matches!(self, Self::Cirrus | Self::Cirrostratus | Self::Cirrocumulus)
+    }
+
+    /// The kind's default altitudes, coverage, density, weather-map period and skew (the table in
+    /// the [module docs](self), with its sources).
+    #[must_use]
+    pub const fn defaults(self) -> KindDefaults {
+        let (base_m, top_m, coverage, density, weather_map_scale_m, skew) = match self {
+            Self::Cumulus => (1_000.0, 2_200.0, 0.4, 0.07, 12_000.0, 0.1),
+            Self::Stratocumulus => (800.0, 1_400.0, 0.7, 0.05, 20_000.0, 0.05),
+            Self::Stratus => (150.0, 450.0, 0.9, 0.04, 40_000.0, 0.0),
+            Self::Altocumulus => (3_000.0, 3_500.0, 0.5, 0.03, 15_000.0, 0.05),
+            Self::Altostratus => (3_000.0, 5_000.0, 0.9, 0.015, 40_000.0, 0.0),
+            Self::Cirrus => (8_000.0, 9_000.0, 0.4, 0.000_8, 50_000.0, 0.5),
+            Self::Cirrostratus => (7_500.0, 8_500.0, 0.9, 0.000_4, 80_000.0, 0.1),
+            Self::Cirrocumulus => (7_000.0, 7_400.0, 0.4, 0.001_6, 15_000.0, 0.1),
+            Self::Cumulonimbus => (1_000.0, 10_000.0, 0.3, 0.1, 30_000.0, 0.2),
+        };
+        KindDefaults {
+            base_m,
+            top_m,
+            coverage,
+            density,
+            weather_map_scale_m,
+            skew,
+        }
+    }
+}
+
+impl fmt::Display for CloudKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Default geometry and optics of a [`CloudKind`], from [`CloudKind::defaults`]. The sources are
+/// in the [module docs](self).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct KindDefaults {
+    /// Cloud base, metres above ground.
+    pub base_m: f32,
+    /// Cloud top, metres above ground.
+    pub top_m: f32,
+    /// Fraction of the sky covered, 0–1.
+    pub coverage: f32,
+    /// Extinction coefficient of the densest cloud, 1/m.
+    pub density: f32,
+    /// Period of the weather noise, metres.
+    pub weather_map_scale_m: f32,
+    /// Horizontal shift per metre of height, downwind (dimensionless).
+    pub skew: f32,
+}
+
+/// One control point of a [`DensityProfile`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Reflect)]
+pub struct ProfilePoint {
+    /// Height in the layer as a fraction: 0 at the base, 1 at the top.
+    pub height_fraction: f32,
+    /// Relative density at that height, 0–1.
+    pub density: f32,
+}
+
+impl ProfilePoint {
+    /// A point at `height_fraction` (0 base, 1 top) with relative `density` (0–1).
+    #[must_use]
+    pub const fn new(height_fraction: f32, density: f32) -> Self {
+        Self {
+            height_fraction,
+            density,
+        }
+    }
+}
+
+/// How a [`DensityProfile`] joins its control points.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Reflect)]
+pub enum ProfileInterpolation {
+    /// Straight lines between points.
+    Linear,
+    /// A monotone cubic (a Fritsch–Carlson-style Hermite spline with Fritsch–Butland tangents, as
+    /// in PCHIP). It is smooth and never overshoots between points: a profile whose points lie in
+    /// 0–1 stays in 0–1, and a plateau stays flat. Default.
+    #[default]
+    Smooth,
+}
+
+/// Relative cloud density against height in a layer: Aetherius' shape-altering curve (seed 002,
+/// "Density Model"). The renderer multiplies the base-shape noise by it before the coverage
+/// remap. Where the profile is low, only the strongest noise survives the remap, which narrows
+/// the clouds there. Where it is high, they fill out. The profile's shape is therefore the shape
+/// of the clouds: a rounded base and a tapering top for cumulus, a flat slab for stratus, an
+/// anvil for cumulonimbus.
+///
+/// The curve is editable data: up to a handful of [`ProfilePoint`]s (eight are plenty), sorted by
+/// height. Evaluation holds the end values beyond the first and last points. A profile with no
+/// points evaluates to 1 everywhere (no shaping). The GPU gets the curve as a table from
+/// [`DensityProfile::bake`], so the number of points is not limited by the shader.
+///
+/// # Example
+///
+/// ```
+/// # use bevy_cloudscape::layers::{DensityProfile, ProfileInterpolation};
+/// // A layer that is densest near its base and thins out upward.
+/// let profile = DensityProfile::new(
+///     [(0.0, 0.0), (0.1, 1.0), (1.0, 0.2)],
+///     ProfileInterpolation::Linear,
+/// );
+/// assert_eq!(profile.evaluate(0.1), 1.0);
+/// assert!((profile.evaluate(0.55) - 0.6).abs() < 1e-6);
+/// ```
+#[derive(Clone, Debug, PartialEq, Reflect)]
+pub struct DensityProfile {
+    /// The control points, sorted by [`ProfilePoint::height_fraction`], each coordinate in 0–1.
+    /// [`DensityProfile::new`] and [`DensityProfile::sanitize`] ensure this. Evaluating
+    /// unsorted points does not panic, but the result is then unspecified.
+    pub points: Vec<ProfilePoint>,
+    /// How the points are joined. Default [`ProfileInterpolation::Smooth`].
+    pub interpolation: ProfileInterpolation,
+}
+
+impl Default for DensityProfile {
+    /// [`DensityProfile::uniform`].
+    fn default() -> Self {
+        Self::uniform()
+    }
+}
+
+impl DensityProfile {
+    /// A profile through `points` given as `(height_fraction, density)` pairs. The points are
+    /// cleaned as in [`DensityProfile::sanitize`]: non-finite points are dropped, coordinates
+    /// clamped to 0–1, and the points sorted by height.
+    #[must_use]
+    pub fn new(
+        points: impl IntoIterator<Item = (f32, f32)>,
+        interpolation: ProfileInterpolation,
+    ) -> Self {
+        let mut profile = Self {
+            points: points
+                .into_iter()
+                .map(|(height_fraction, density)| ProfilePoint::new(height_fraction, density))
+                .collect(),
+            interpolation,
+        };
+        profile.sanitize();
+        profile
+    }
+
+    /// Density 1 at every height: the layer's clouds keep the noise's own shape.
+    #[must_use]
+    pub fn uniform() -> Self {
+        Self::smooth(&[(0.0, 1.0), (1.0, 1.0)])
+    }
+
+    /// The default profile of `kind`.
+    #[must_use]
+    pub fn for_kind(kind: CloudKind) -> Self {
+        match kind {
+            CloudKind::Cumulus => Self::cumulus(),
+            CloudKind::Stratocumulus => Self::stratocumulus(),
+            CloudKind::Stratus => Self::stratus(),
+            CloudKind::Altocumulus => Self::altocumulus(),
+            CloudKind::Altostratus => Self::altostratus(),
+            CloudKind::Cirrus => Self::cirrus(),
+            CloudKind::Cirrostratus => Self::cirrostratus(),
+            CloudKind::Cirrocumulus => Self::cirrocumulus(),
+            CloudKind::Cumulonimbus => Self::cumulonimbus(),
+        }
+    }
+
+    /// Cumulus: a short ramp at the base (a flat, well-defined base, rounded by the smooth
+    /// curve), full density in the lower half, then a long taper. The taper narrows the clouds
+    /// into domes, and the renderer's detail erosion makes the domes billow. This is seed 002's
+    /// "no density at the bottom, full density somewhere in the middle … fades to zero density
+    /// again at the top", with the peak low as in a convective heap.
+    #[must_use]
+    pub fn cumulus() -> Self {
+        Self::smooth(&[
+            (0.0, 0.0),
+            (0.07, 0.7),
+            (0.2, 1.0),
+            (0.55, 0.9),
+            (0.85, 0.45),
+            (1.0, 0.0),
+        ])
+    }
+
+    /// Stratocumulus: like cumulus, but flatter and spread out. The ramp is quick, the plateau
+    /// wide, and the drop-off near the top short: rolls and patches rather than towers.
+    #[must_use]
+    pub fn stratocumulus() -> Self {
+        Self::smooth(&[
+            (0.0, 0.0),
+            (0.1, 0.8),
+            (0.3, 1.0),
+            (0.7, 0.9),
+            (0.9, 0.4),
+            (1.0, 0.0),
+        ])
+    }
+
+    /// Stratus: a thin, flat slab with full density from a tenth of the way up to a tenth from
+    /// the top, and short fades at both edges.
+    #[must_use]
+    pub fn stratus() -> Self {
+        Self::smooth(&[(0.0, 0.0), (0.1, 1.0), (0.9, 1.0), (1.0, 0.0)])
+    }
+
+    /// Altocumulus: small heaps like a shallow cumulus, in a thin mid-level layer.
+    #[must_use]
+    pub fn altocumulus() -> Self {
+        Self::smooth(&[(0.0, 0.0), (0.15, 0.8), (0.35, 1.0), (0.7, 0.7), (1.0, 0.0)])
+    }
+
+    /// Altostratus: a thick, nearly uniform sheet, slightly denser in the middle.
+    #[must_use]
+    pub fn altostratus() -> Self {
+        Self::smooth(&[
+            (0.0, 0.0),
+            (0.15, 0.85),
+            (0.5, 1.0),
+            (0.85, 0.85),
+            (1.0, 0.0),
+        ])
+    }
+
+    /// Cirrus: thin and wispy. The peak density is only half, so the coverage remap leaves thin
+    /// filaments rather than solid cloud, and the fade reaches the edges from both sides.
+    #[must_use]
+    pub fn cirrus() -> Self {
+        Self::smooth(&[(0.0, 0.0), (0.3, 0.4), (0.5, 0.5), (0.7, 0.4), (1.0, 0.0)])
+    }
+
+    /// Cirrostratus: an even, faint veil across most of the layer.
+    #[must_use]
+    pub fn cirrostratus() -> Self {
+        Self::smooth(&[(0.0, 0.0), (0.2, 0.6), (0.8, 0.6), (1.0, 0.0)])
+    }
+
+    /// Cirrocumulus: a thin sheet of tiny cloudlets, a little denser than cirrus.
+    #[must_use]
+    pub fn cirrocumulus() -> Self {
+        Self::smooth(&[(0.0, 0.0), (0.3, 0.7), (0.6, 0.7), (1.0, 0.0)])
+    }
+
+    /// Cumulonimbus: a tall tower whose density stays high all the way up. It bulges slightly in
+    /// the upper third where the anvil spreads, and drops only in the last few per cent, so the
+    /// anvil's top is flat. Because the profile is high near the top, the coverage remap keeps
+    /// wide cloud there, and that is the anvil widening (seed 000 §3.3.10: "Their top is often
+    /// shaped like an anvil, whereas the base is flat and dark").
+    #[must_use]
+    pub fn cumulonimbus() -> Self {
+        Self::smooth(&[
+            (0.0, 0.0),
+            (0.03, 0.7),
+            (0.1, 0.95),
+            (0.5, 0.85),
+            (0.75, 0.95),
+            (0.92, 1.0),
+            (0.97, 0.8),
+            (1.0, 0.0),
+        ])
+    }
+
+    fn smooth(points: &[(f32, f32)]) -> Self {
+        Self::new(points.iter().copied(), ProfileInterpolation::Smooth)
+    }
+
+    /// Relative density at height fraction `h` (0 base, 1 top), in 0–1.
+    ///
+    /// `h` outside 0–1 is clamped, and a NaN `h` reads the base. Beyond the first and last points
+    /// the end values are held. An empty profile gives 1. A non-finite result (possible only for
+    /// hand-made points that are not finite) gives 0. Allocation-free.
+    #[must_use]
+    pub fn evaluate(&self, h: f32) -> f32 {
+        let points = &self.points;
+        let (Some(first), Some(last)) = (points.first(), points.last()) else {
+            return 1.0;
+        };
+        let h = if h.is_nan() { 0.0 } else { h.clamp(0.0, 1.0) };
+        let value = if h <= first.height_fraction {
+            first.density
+        } else if h >= last.height_fraction {
+            last.density
+        } else {
+            // The segment [i, i + 1] holding h; it exists because first < h < last.
+            let i = points
+                .windows(2)
+                .position(|pair| h <= pair[1].height_fraction)
+                .unwrap_or(points.len() - 2);
+            self.interpolate(i, h)
+        };
+        if value.is_finite() {
+            value.clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    }
+
+    /// Value in segment `i` (between points `i` and `i + 1`) at height `h`.
+    fn interpolate(&self, i: usize, h: f32) -> f32 {
+        let points = &self.points;
+        let (p0, p1) = (points[i], points[i + 1]);
+        let width = p1.height_fraction - p0.height_fraction;
+        if width <= 0.0 {
+            return p1.density;
+        }
+        let t = (h - p0.height_fraction) / width;
+        match self.interpolation {
+            ProfileInterpolation::Linear => p0.density + (p1.density - p0.density) * t,
+            ProfileInterpolation::Smooth => {
+                // Cubic Hermite with shape-preserving tangents (Fritsch & Carlson 1980,
+                // "Monotone piecewise cubic interpolation"), computed locally so evaluation
+                // needs no stored tangents.
+                let m0 = self.tangent(i);
+                let m1 = self.tangent(i + 1);
+                let (t2, t3) = (t * t, t * t * t);
+                let h00 = 2.0 * t3 - 3.0 * t2 + 1.0;
+                let h10 = t3 - 2.0 * t2 + t;
+                let h01 = -2.0 * t3 + 3.0 * t2;
+                let h11 = t3 - t2;
+                h00 * p0.density + h10 * width * m0 + h01 * p1.density + h11 * width * m1
+            }
+        }
+    }
+
+    /// Slope at point `i` for the smooth curve.
+    fn tangent(&self, i: usize) -> f32 {
+        let points = &self.points;
+        let secant = |k: usize| {
+            let (a, b) = (points[k], points[k + 1]);
+            let width = b.height_fraction - a.height_fraction;
+            if width > 0.0 {
+                (b.density - a.density) / width
+            } else {
+                0.0
+            }
+        };
+        let last = points.len() - 1;
+        if i == 0 {
+            return secant(0);
+        }
+        if i == last {
+            return secant(last - 1);
+        }
+        let (d0, d1) = (secant(i - 1), secant(i));
+        // A local extremum or flat neighbour: a zero slope keeps the curve from overshooting.
+        if d0 * d1 <= 0.0 {
+            return 0.0;
+        }
+        // Fritsch & Butland (1984) weighted harmonic mean of the neighbouring secants. It stays
+        // within 3× the smaller secant, inside Fritsch & Carlson's monotonicity region.
+        let w0 = points[i].height_fraction - points[i - 1].height_fraction;
+        let w1 = points[i + 1].height_fraction - points[i].height_fraction;
+        3.0 * (w0 + w1) / ((2.0 * w1 + w0) / d0 + (w1 + 2.0 * w0) / d1)
+    }
+
+    /// Samples the curve into `table` for the GPU: entry `i` of `n` is the density at the
+    /// texel centre `(i + 0.5) / n`. That makes the table a 1D texture read with linear
+    /// filtering, the array seed 002 passes to its shader ("sampled into an array of values in
+    /// the CPU when the curve is modified").
+    pub fn bake(&self, table: &mut [f32]) {
+        let n = table.len() as f32;
+        for (i, value) in table.iter_mut().enumerate() {
+            *value = self.evaluate((i as f32 + 0.5) / n);
+        }
+    }
+
+    /// A cleaned copy; see [`DensityProfile::sanitize`].
+    #[must_use]
+    pub fn sanitized(&self) -> Self {
+        let mut clean = self.clone();
+        clean.sanitize();
+        clean
+    }
+
+    /// Cleans the profile in place: non-finite points are dropped, both coordinates clamped to
+    /// 0–1, and the points sorted by height. The sort is stable, so points at the same height
+    /// keep their order and make a step. A clean profile is left as it is, without allocating.
+    pub fn sanitize(&mut self) {
+        self.points
+            .retain(|p| p.height_fraction.is_finite() && p.density.is_finite());
+        for point in &mut self.points {
+            point.height_fraction = point.height_fraction.clamp(0.0, 1.0);
+            point.density = point.density.clamp(0.0, 1.0);
+        }
+        let by_height =
+            |a: &ProfilePoint, b: &ProfilePoint| a.height_fraction.total_cmp(&b.height_fraction);
+        if !self.points.is_sorted_by(|a, b| by_height(a, b).is_le()) {
+            self.points.sort_by(by_height);
+        }
+    }
+}
+
+/// One layer of cloud between two altitudes above the ground. The [module docs](self) explain
+/// the model.
+///
+/// Start from [`CloudLayer::new`] for a kind's defaults, then change fields. The weather mapping
+/// ([`weather::mapping`](crate::weather::mapping)) rewrites a layer whose
+/// [`CloudLayer::weather_driven`] is true; set it to false to keep your own values.
+///
+/// `Default` is [`CloudLayer::new`]`(`[`CloudKind::Cumulus`]`)`.
+#[derive(Component, Clone, Debug, PartialEq, Reflect)]
+#[reflect(Component, Default)]
+pub struct CloudLayer {
+    /// The genus. It picks the defaults in [`CloudLayer::new`]; the renderer uses only the
+    /// numbers below. Default [`CloudKind::Cumulus`].
+    pub kind: CloudKind,
+    /// Cloud base, metres above the ground (the scene's ground level). Default: the kind's (see
+    /// [`CloudKind::defaults`]).
+    pub base_m: f32,
+    /// Cloud top, metres above the ground; above [`CloudLayer::base_m`] for a visible layer.
+    /// Default: the kind's.
+    pub top_m: f32,
+    /// Fraction of the sky covered, 0–1 (forecast `lowclouds`/`midclouds`/`highclouds`). Default:
+    /// the kind's.
+    pub coverage: f32,
+    /// Extinction coefficient of the densest cloud in the layer, 1/m (≥ 0). Default: the kind's,
+    /// e.g. 0.07 /m for cumulus.
+    pub density: f32,
+    /// Vertical density profile: Aetherius' shape-altering curve. Default:
+    /// [`DensityProfile::for_kind`].
+    pub profile: DensityProfile,
+    /// Period of the layer's 2D weather noise, metres: the horizontal size of the pattern of
+    /// clouds and gaps (> 0). Default: the kind's, e.g. 12 000 m for cumulus.
+    pub weather_map_scale_m: f32,
+    /// Velocity of the air carrying the layer, `[east, north]` in m/s: where the clouds move TO.
+    /// Default `[0, 0]`.
+    pub wind_m_s: [f32; 2],
+    /// Horizontal shift of the weather map per metre of height, in the wind's direction
+    /// (dimensionless; 0.5 moves the top of a 1 km layer 500 m downwind of its base). Default:
+    /// the kind's.
+    pub skew: f32,
+    /// Darkening of the cloud by precipitation, 0 (none) to 1 (darkest). Default 0.
+    pub precipitation: f32,
+    /// Rain (or snow, as water) falling from the layer's base, mm/h (≥ 0). Default 0.
+    pub rain_mm_per_h: f32,
+    /// Whether the weather mapping sets this layer from the forecast. When false the mapping
+    /// leaves every field alone ("play" mode). Default true.
+    pub weather_driven: bool,
+}
+
+impl Default for CloudLayer {
+    fn default() -> Self {
+        Self::new(CloudKind::Cumulus)
+    }
+}
+
+impl CloudLayer {
+    /// A layer of `kind` with the kind's defaults ([`CloudKind::defaults`],
+    /// [`DensityProfile::for_kind`]), no wind, no precipitation, and weather-driven.
+    #[must_use]
+    pub fn new(kind: CloudKind) -> Self {
+        let defaults = kind.defaults();
+        Self {
+            kind,
+            base_m: defaults.base_m,
+            top_m: defaults.top_m,
+            coverage: defaults.coverage,
+            density: defaults.density,
+            profile: DensityProfile::for_kind(kind),
+            weather_map_scale_m: defaults.weather_map_scale_m,
+            wind_m_s: [0.0, 0.0],
+            skew: defaults.skew,
+            precipitation: 0.0,
+            rain_mm_per_h: 0.0,
+            weather_driven: true,
+        }
+    }
+
+    /// Thickness `top_m − base_m`, metres (negative for an inverted layer).
+    #[must_use]
+    pub fn thickness_m(&self) -> f32 {
+        self.top_m - self.base_m
+    }
+
+    /// Whether the layer can show anything: coverage and density both finite and above 0, and
+    /// base and top finite with the top above the base. An invisible layer is not sent to the
+    /// GPU.
+    #[must_use]
+    pub fn is_visible(&self) -> bool {
+        let positive = |x: f32| x.is_finite() && x > 0.0;
+        positive(self.coverage)
+            && positive(self.density)
+            && self.base_m.is_finite()
+            && self.top_m.is_finite()
+            && self.top_m > self.base_m
+    }
+
+    /// A cleaned copy that the renderer can trust; see [`CloudLayer::sanitize`] for the rules.
+    #[must_use]
+    pub fn sanitized(&self) -> Self {
+        let mut clean = self.clone();
+        clean.sanitize();
+        clean
+    }
+
+    /// Cleans the layer in place so that the renderer can trust it. Each field is fixed as
+    /// follows, and anything not listed is kept:
+    ///
+    /// - `coverage`: clamped to 0–1; NaN becomes the kind's default.
+    /// - `density`: a non-finite value becomes the kind's default; a negative value becomes 0.
+    /// - `base_m`, `top_m`: a non-finite value becomes the kind's default; if the base is then
+    ///   above the top, the two are swapped. Negative altitudes are kept (a fog bank may reach
+    ///   below the scene's ground level).
+    /// - `weather_map_scale_m`: a non-finite or non-positive value becomes the kind's default (the
+    ///   renderer divides by it).
+    /// - `skew`: a non-finite value becomes the kind's default.
+    /// - `wind_m_s`: a non-finite component becomes 0.
+    /// - `precipitation`: clamped to 0–1; NaN becomes 0.
+    /// - `rain_mm_per_h`: a negative or NaN value becomes 0; +∞ is kept as `f32::MAX`.
+    /// - `profile`: [`DensityProfile::sanitize`].
+    ///
+    /// It does not allocate, so it can run on every layer every frame.
+    pub fn sanitize(&mut self) {
+        let defaults = self.kind.defaults();
+        let finite_or = |value: f32, default: f32| if value.is_finite() { value } else { default };
+        let unit = |value: f32, default: f32| {
+            if value.is_nan() {
+                default
+            } else {
+                value.clamp(0.0, 1.0)
+            }
+        };
+        self.base_m = finite_or(self.base_m, defaults.base_m);
+        self.top_m = finite_or(self.top_m, defaults.top_m);
+        if self.base_m > self.top_m {
+            std::mem::swap(&mut self.base_m, &mut self.top_m);
+        }
+        self.coverage = unit(self.coverage, defaults.coverage);
+        self.density = if self.density.is_finite() {
+            self.density.max(0.0)
+        } else {
+            defaults.density
+        };
+        if !(self.weather_map_scale_m.is_finite() && self.weather_map_scale_m > 0.0) {
+            self.weather_map_scale_m = defaults.weather_map_scale_m;
+        }
+        self.wind_m_s = self.wind_m_s.map(|v| finite_or(v, 0.0));
+        self.skew = finite_or(self.skew, defaults.skew);
+        self.precipitation = unit(self.precipitation, 0.0);
+        self.rain_mm_per_h = if self.rain_mm_per_h > 0.0 {
+            self.rain_mm_per_h.min(f32::MAX)
+        } else {
+            0.0
+        };
+        self.profile.sanitize();
+    }
+
+    /// The relative density at `height_m` above the ground: the profile at the height's fraction
+    /// of the way from base to top. Below the base, above the top, for a non-finite height or an
+    /// invisible layer, it is 0.
+    #[must_use]
+    pub fn profile_at(&self, height_m: f32) -> f32 {
+        if !self.is_visible() || !(self.base_m..=self.top_m).contains(&height_m) {
+            return 0.0;
+        }
+        self.profile
+            .evaluate((height_m - self.base_m) / self.thickness_m())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid(profile: &DensityProfile, n: usize) -> Vec<f32> {
+        (0..=n)
+            .map(|i| profile.evaluate(i as f32 / n as f32))
+            .collect()
+    }
+
+    #[test]
+    fn every_kind_has_consistent_defaults() {
+        for kind in CloudKind::ALL {
+            let layer = CloudLayer::new(kind);
+            let d = kind.defaults();
+            assert_eq!(layer.kind, kind);
+            assert!(layer.is_visible(), "{kind}");
+            assert!(d.top_m > d.base_m && d.base_m >= 0.0, "{kind}");
+            assert!((0.0..=1.0).contains(&d.coverage), "{kind}");
+            assert!(d.density > 0.0 && d.weather_map_scale_m > 0.0, "{kind}");
+            assert_eq!(layer.profile, DensityProfile::for_kind(kind));
+            assert_eq!(
+                layer.sanitized(),
+                layer,
+                "{kind}: defaults are already clean"
+            );
+            assert!(layer.weather_driven);
+            assert_eq!(
+                (layer.precipitation, layer.rain_mm_per_h, layer.wind_m_s),
+                (0.0, 0.0, [0.0, 0.0])
+            );
+            // Every profile fades to nothing at both ends of the layer and peaks high enough to
+            // show: soft layer boundaries (seed 002's DensityAltering intent).
+            let values = grid(&layer.profile, 100);
+            assert_eq!(values[0], 0.0, "{kind}");
+            assert_eq!(values[100], 0.0, "{kind}");
+            assert!(values.iter().all(|v| (0.0..=1.0).contains(v)), "{kind}");
+            assert!(values.iter().copied().fold(0.0, f32::max) >= 0.5, "{kind}");
+        }
+        assert_eq!(CloudLayer::default(), CloudLayer::new(CloudKind::Cumulus));
+        assert_eq!(CloudKind::default(), CloudKind::Cumulus);
+    }
+
+    #[test]
+    fn altitudes_follow_the_wmo_etages() {
+        // Low étage: base below 2 km; middle: 2–7 km; high: 5–13 km (WMO-No. 407).
+        for kind in CloudKind::ALL {
+            let d = kind.defaults();
+            match kind {
+                CloudKind::Cumulus | CloudKind::Stratocumulus | CloudKind::Stratus => {
+                    assert!(d.base_m < 2_000.0, "{kind}");
+                }
+                CloudKind::Altocumulus | CloudKind::Altostratus => {
+                    assert!(d.base_m >= 2_000.0 && d.top_m <= 7_000.0, "{kind}");
+                }
+                CloudKind::Cirrus | CloudKind::Cirrostratus | CloudKind::Cirrocumulus => {
+                    assert!(kind.is_cirrus_family());
+                    assert!(d.base_m >= 5_000.0 && d.top_m <= 13_000.0, "{kind}");
+                }
+                CloudKind::Cumulonimbus => {
+                    assert!(d.base_m < 2_000.0 && d.top_m >= 9_000.0, "{kind}");
+                }
+            }
+        }
+        let cirrus_family: Vec<_> = CloudKind::ALL
+            .into_iter()
+            .filter(|k| k.is_cirrus_family())
+            .collect();
+        assert_eq!(cirrus_family.len(), 3);
+    }
+
+    #[test]
+    fn densities_follow_the_liquid_water_relation() {
+        // σ = 3·LWC / (2·ρ·r_e) with the module docs' values, within 10 %.
+        let sigma = |lwc_g_m3: f32, rho_kg_m3: f32, r_e_um: f32| {
+            3.0 * lwc_g_m3 * 1e-3 / (2.0 * rho_kg_m3 * r_e_um * 1e-6)
+        };
+        let cases = [
+            (CloudKind::Cumulus, sigma(0.5, 1000.0, 10.0)),
+            (CloudKind::Stratocumulus, sigma(0.3, 1000.0, 9.0)),
+            (CloudKind::Stratus, sigma(0.25, 1000.0, 9.0)),
+            (CloudKind::Altocumulus, sigma(0.2, 1000.0, 10.0)),
+            (CloudKind::Altostratus, sigma(0.1, 1000.0, 10.0)),
+            (CloudKind::Cirrus, sigma(0.02, 917.0, 40.0)),
+            (CloudKind::Cirrostratus, sigma(0.01, 917.0, 40.0)),
+            (CloudKind::Cirrocumulus, sigma(0.03, 917.0, 30.0)),
+            (CloudKind::Cumulonimbus, sigma(1.0, 1000.0, 15.0)),
+        ];
+        for (kind, expected) in cases {
+            let density = kind.defaults().density;
+            assert!(
+                (density / expected - 1.0).abs() < 0.1,
+                "{kind}: {density} vs {expected}"
+            );
+        }
+    }
+
+    #[test]
+    fn cumulus_profile_has_a_rounded_base_and_a_tapering_top() {
+        let cumulus = DensityProfile::cumulus();
+        // Rises quickly from the base, with no kink at the points (smooth curve).
+        assert_eq!(cumulus.evaluate(0.0), 0.0);
+        assert!(cumulus.evaluate(0.07) > 0.6);
+        assert!(cumulus.evaluate(0.035) > 0.0 && cumulus.evaluate(0.035) < 0.7);
+        // Full density low in the layer, then monotonically thinner toward the top.
+        let peak = cumulus.evaluate(0.2);
+        assert_eq!(peak, 1.0);
+        let upper = grid(&cumulus, 100);
+        for pair in upper[55..].windows(2) {
+            assert!(pair[1] <= pair[0] + 1e-6, "{pair:?}");
+        }
+        assert!(cumulus.evaluate(0.9) < 0.5 * peak);
+    }
+
+    #[test]
+    fn stratus_is_a_flat_slab() {
+        let stratus = DensityProfile::stratus();
+        for i in 10..=90 {
+            let value = stratus.evaluate(i as f32 / 100.0);
+            assert!((value - 1.0).abs() < 1e-6, "{i}: {value}");
+        }
+        assert!(stratus.evaluate(0.05) > 0.0 && stratus.evaluate(0.05) < 1.0);
+        // Thin: the kind's default is a few hundred metres.
+        let d = CloudKind::Stratus.defaults();
+        assert!(d.top_m - d.base_m <= 500.0);
+    }
+
+    #[test]
+    fn cumulonimbus_stays_dense_to_an_anvil_top() {
+        let cb = DensityProfile::cumulonimbus();
+        let middle = cb.evaluate(0.5);
+        // Density near the top is at least as high as in the middle: the anvil widens.
+        for h in [0.8, 0.85, 0.9, 0.93, 0.95] {
+            let value = cb.evaluate(h);
+            assert!(value >= middle && value >= 0.85, "{h}: {value}");
+        }
+        // Dense from low down, too: a tall tower, not a heap.
+        assert!(cb.evaluate(0.1) >= 0.9);
+        // And its default layer is the tallest of all kinds.
+        let depth = |k: CloudKind| k.defaults().top_m - k.defaults().base_m;
+        assert!(
+            CloudKind::ALL
+                .into_iter()
+                .all(|k| depth(k) <= depth(CloudKind::Cumulonimbus))
+        );
+    }
+
+    #[test]
+    fn cirrus_is_thin_and_wispy() {
+        let cirrus = DensityProfile::cirrus();
+        let peak = grid(&cirrus, 200).into_iter().fold(0.0, f32::max);
+        assert!(peak <= 0.5 + 1e-6 && peak > 0.3, "{peak}");
+        let d = CloudKind::Cirrus.defaults();
+        assert!(d.density < 0.01 * CloudKind::Cumulus.defaults().density * 2.0);
+        assert!(d.top_m - d.base_m <= 1_500.0);
+    }
+
+    #[test]
+    fn smooth_profiles_never_overshoot_and_pass_through_their_points() {
+        let profiles = CloudKind::ALL.map(DensityProfile::for_kind);
+        for profile in &profiles {
+            for point in &profile.points {
+                assert!((profile.evaluate(point.height_fraction) - point.density).abs() < 1e-6);
+            }
+            // Between two points the smooth curve stays within their range (monotone cubic).
+            for pair in profile.points.windows(2) {
+                let (lo, hi) = (
+                    pair[0].density.min(pair[1].density),
+                    pair[0].density.max(pair[1].density),
+                );
+                for i in 1..50 {
+                    let h = pair[0].height_fraction
+                        + (pair[1].height_fraction - pair[0].height_fraction) * i as f32 / 50.0;
+                    let value = profile.evaluate(h);
+                    assert!(value >= lo - 1e-5 && value <= hi + 1e-5, "{h}: {value}");
+                }
+            }
+        }
+        // A steep step next to a gentle slope: a plain Catmull-Rom would overshoot here.
+        let step = DensityProfile::new(
+            [(0.0, 0.0), (0.45, 0.0), (0.55, 1.0), (1.0, 1.0)],
+            ProfileInterpolation::Smooth,
+        );
+        for value in grid(&step, 400) {
+            assert!((0.0..=1.0).contains(&value), "{value}");
+        }
+        for pair in grid(&step, 400).windows(2) {
+            assert!(pair[1] >= pair[0] - 1e-6);
+        }
+    }
+
+    #[test]
+    fn linear_profiles_and_edge_cases() {
+        let ramp = DensityProfile::new([(0.2, 0.0), (0.8, 1.0)], ProfileInterpolation::Linear);
+        assert_eq!(ramp.evaluate(0.5), 0.5);
+        // End values held beyond the points; out-of-range and NaN heights are clamped.
+        assert_eq!(ramp.evaluate(0.1), 0.0);
+        assert_eq!(ramp.evaluate(0.9), 1.0);
+        assert_eq!(ramp.evaluate(-3.0), 0.0);
+        assert_eq!(ramp.evaluate(7.0), 1.0);
+        assert_eq!(ramp.evaluate(f32::NAN), 0.0);
+        // No points: no shaping. One point: a constant.
+        let empty = DensityProfile {
+            points: Vec::new(),
+            interpolation: ProfileInterpolation::Smooth,
+        };
+        assert_eq!(empty.evaluate(0.3), 1.0);
+        let single = DensityProfile::new([(0.5, 0.25)], ProfileInterpolation::Smooth);
+        assert_eq!(single.evaluate(0.0), 0.25);
+        assert_eq!(single.evaluate(1.0), 0.25);
+        // Two points at the same height make a step, without dividing by zero.
+        let step = DensityProfile::new(
+            [(0.0, 0.0), (0.5, 0.0), (0.5, 1.0), (1.0, 1.0)],
+            ProfileInterpolation::Smooth,
+        );
+        assert_eq!(step.evaluate(0.25), 0.0);
+        assert_eq!(step.evaluate(0.75), 1.0);
+        assert!(step.evaluate(0.5).is_finite());
+        assert_eq!(DensityProfile::default().evaluate(0.37), 1.0);
+        assert_eq!(DensityProfile::uniform().evaluate(0.0), 1.0);
+    }
+
+    #[test]
+    fn profiles_are_cleaned_and_hand_made_garbage_does_not_panic() {
+        let messy = DensityProfile::new(
+            [
+                (0.9, 0.2),
+                (f32::NAN, 1.0),
+                (-1.0, 0.5),
+                (0.4, 3.0),
+                (0.5, f32::INFINITY),
+            ],
+            ProfileInterpolation::Linear,
+        );
+        assert_eq!(
+            messy.points,
+            vec![
+                ProfilePoint::new(0.0, 0.5),
+                ProfilePoint::new(0.4, 1.0),
+                ProfilePoint::new(0.9, 0.2),
+            ]
+        );
+        // Edited in place (as the inspector does) into something unsorted and non-finite.
+        let mut raw = DensityProfile::cumulus();
+        raw.points.push(ProfilePoint::new(0.3, f32::NAN));
+        raw.points.push(ProfilePoint::new(f32::NAN, 0.3));
+        raw.points.swap(0, 3);
+        for interpolation in [ProfileInterpolation::Linear, ProfileInterpolation::Smooth] {
+            raw.interpolation = interpolation;
+            for value in grid(&raw, 100) {
+                assert!((0.0..=1.0).contains(&value), "{value}");
+            }
+        }
+        let clean = raw.sanitized();
+        let mut in_place = raw.clone();
+        in_place.sanitize();
+        assert_eq!(in_place, clean);
+        assert!(
+            clean
+                .points
+                .windows(2)
+                .all(|p| p[0].height_fraction <= p[1].height_fraction)
+        );
+        assert_eq!(clean.points.len(), DensityProfile::cumulus().points.len());
+    }
+
+    #[test]
+    fn baking_samples_texel_centres() {
+        let ramp = DensityProfile::new([(0.0, 0.0), (1.0, 1.0)], ProfileInterpolation::Linear);
+        let mut table = [0.0; 4];
+        ramp.bake(&mut table);
+        assert_eq!(table, [0.125, 0.375, 0.625, 0.875]);
+        let mut empty: [f32; 0] = [];
+        ramp.bake(&mut empty);
+        let mut cb = [0.0; 64];
+        DensityProfile::cumulonimbus().bake(&mut cb);
+        assert!(cb.iter().all(|v| (0.0..=1.0).contains(v)));
+    }
+
+    #[test]
+    fn visibility_rules() {
+        let visible = CloudLayer::new(CloudKind::Stratus);
+        assert!(visible.is_visible());
+        let with = |edit: fn(&mut CloudLayer)| {
+            let mut layer = visible.clone();
+            edit(&mut layer);
+            layer.is_visible()
+        };
+        assert!(!with(|l| l.coverage = 0.0));
+        assert!(!with(|l| l.density = 0.0));
+        assert!(!with(|l| l.coverage = f32::NAN));
+        assert!(!with(|l| l.density = f32::INFINITY));
+        assert!(!with(|l| l.density = -1.0));
+        assert!(!with(|l| l.top_m = l.base_m));
+        assert!(!with(|l| l.top_m = l.base_m - 1.0));
+        assert!(!with(|l| l.base_m = f32::NAN));
+        assert!(!with(|l| l.top_m = f32::INFINITY));
+        // Hand-set values that still make sense stay visible.
+        assert!(with(|l| l.base_m = -50.0));
+        assert!(with(|l| l.coverage = 1e-6));
+    }
+
+    #[test]
+    fn sanitizing_repairs_every_field() {
+        let kind = CloudKind::Altocumulus;
+        let d = kind.defaults();
+        let mut layer = CloudLayer::new(kind);
+        layer.coverage = 1.7;
+        layer.precipitation = -0.5;
+        layer.base_m = 4_000.0;
+        layer.top_m = 3_200.0;
+        layer.density = -0.2;
+        layer.wind_m_s = [f32::NAN, 3.0];
+        layer.rain_mm_per_h = -1.0;
+        layer.weather_map_scale_m = 0.0;
+        layer.weather_driven = false;
+        let clean = layer.sanitized();
+        assert_eq!(clean.coverage, 1.0);
+        assert_eq!(clean.precipitation, 0.0);
+        assert_eq!((clean.base_m, clean.top_m), (3_200.0, 4_000.0));
+        assert_eq!(clean.density, 0.0);
+        assert_eq!(clean.wind_m_s, [0.0, 3.0]);
+        assert_eq!(clean.rain_mm_per_h, 0.0);
+        assert_eq!(clean.weather_map_scale_m, d.weather_map_scale_m);
+        assert!(!clean.weather_driven, "the play-mode flag is the user's");
+        assert_eq!(clean.kind, kind);
+
+        let mut nan = CloudLayer::new(kind);
+        nan.coverage = f32::NAN;
+        nan.density = f32::NAN;
+        nan.base_m = f32::NAN;
+        nan.top_m = f32::NEG_INFINITY;
+        nan.skew = f32::NAN;
+        nan.precipitation = f32::NAN;
+        nan.rain_mm_per_h = f32::NAN;
+        nan.weather_map_scale_m = f32::INFINITY;
+        let clean = nan.sanitized();
+        assert_eq!(clean, CloudLayer::new(kind));
+        // The inverted default case: a NaN base replaced by a default above the given top.
+        let mut low_top = CloudLayer::new(kind);
+        low_top.base_m = f32::NAN;
+        low_top.top_m = 100.0;
+        let clean = low_top.sanitized();
+        assert_eq!((clean.base_m, clean.top_m), (100.0, d.base_m));
+        assert!(clean.is_visible());
+        let mut infinite_rain = CloudLayer::new(kind);
+        infinite_rain.rain_mm_per_h = f32::INFINITY;
+        assert_eq!(infinite_rain.sanitized().rain_mm_per_h, f32::MAX);
+    }
+
+    #[test]
+    fn profile_at_maps_heights_into_the_layer() {
+        let mut layer = CloudLayer::new(CloudKind::Stratus);
+        layer.base_m = 100.0;
+        layer.top_m = 300.0;
+        assert_eq!(layer.profile_at(200.0), 1.0);
+        assert_eq!(layer.profile_at(50.0), 0.0);
+        assert_eq!(layer.profile_at(350.0), 0.0);
+        assert_eq!(layer.profile_at(f32::NAN), 0.0);
+        assert_eq!(layer.thickness_m(), 200.0);
+        layer.coverage = 0.0;
+        assert_eq!(layer.profile_at(200.0), 0.0);
+    }
+
+    #[test]
+    fn names() {
+        assert_eq!(CloudKind::Cumulonimbus.to_string(), "cumulonimbus");
+        let names: std::collections::HashSet<_> = CloudKind::ALL.iter().map(|k| k.name()).collect();
+        assert_eq!(names.len(), CloudKind::ALL.len());
+    }
+}

@@ -1,0 +1,85 @@
+//! # `bevy_cloudscape`
+//!
+//! Weather-driven volumetric clouds for the [Bevy](https://bevyengine.org) game engine.
+//!
+//! Add [`CloudscapePlugin`] to an app. The crate is organised in the order data flows through
+//! it, from a forecast value to a pixel:
+//!
+//! | stage | module | what it does |
+//! |---|---|---|
+//! | weather | [`weather`] | meteoblue / Open-Meteo files to a [`weather::Forecast`], sampled into a [`weather::WeatherState`] |
+//! | sky | [`sky`] | where the sun is for a place and a UTC instant (NREL SPA) |
+//! | CPU reference | [`reference`] | f64 twin of the GPU noise: the truth the GPU is tested against |
+//! | noise | [`render::noise`] | compute pass filling tileable 3D cloud-noise textures once |
+//!
+//! Compatible with Bevy 0.19.
+#![deny(missing_docs)]
+
+use bevy::{
+    app::{PluginGroup, PluginGroupBuilder},
+    prelude::*,
+};
+
+pub mod layers;
+pub mod reference;
+pub mod render;
+pub mod sky;
+pub mod weather;
+
+/// Everything a game needs to add clouds, in one import.
+pub mod prelude {
+    pub use crate::render::noise::{CloudNoisePlugin, CloudNoiseSettings};
+    pub use crate::sky::{ClockMode, SceneClock, SkyPlugin, Sun};
+    pub use crate::weather::{
+        CurrentWeather, Forecast, GeoOrigin, UtcInstant, WeatherPlugin, WeatherSource,
+    };
+    pub use crate::{CloudscapePlugin, CloudscapeSystems};
+}
+
+/// Adds every stage of the cloud pipeline.
+///
+/// It is a [`PluginGroup`]: stages can be left out or replaced, for example
+/// `CloudscapePlugin.build().disable::<CloudNoisePlugin>()`.
+///
+/// [`CloudNoisePlugin`]: render::noise::CloudNoisePlugin
+#[derive(Debug, Default, Clone, Copy)]
+pub struct CloudscapePlugin;
+
+impl PluginGroup for CloudscapePlugin {
+    fn build(self) -> PluginGroupBuilder {
+        PluginGroupBuilder::start::<Self>()
+            .add(SchedulePlugin)
+            .add(weather::WeatherPlugin)
+            .add(sky::SkyPlugin)
+            .add(render::noise::CloudNoisePlugin)
+    }
+}
+
+/// Where the crate's main-world systems run in `Update`, in this order. Order your own systems
+/// against them, e.g. set the [`sky::SceneClock`] `.before(CloudscapeSystems::Clock)`.
+#[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum CloudscapeSystems {
+    /// Advances the [`sky::SceneClock`].
+    Clock,
+    /// Samples the [`weather::WeatherSource`] forecasts into [`weather::CurrentWeather`].
+    Weather,
+    /// Aims the [`sky::Sun`] lights.
+    Sun,
+}
+
+/// Orders the [`CloudscapeSystems`] sets.
+struct SchedulePlugin;
+
+impl Plugin for SchedulePlugin {
+    fn build(&self, app: &mut App) {
+        app.configure_sets(
+            Update,
+            (
+                CloudscapeSystems::Clock,
+                CloudscapeSystems::Weather,
+                CloudscapeSystems::Sun,
+            )
+                .chain(),
+        );
+    }
+}

@@ -1,0 +1,16 @@
+//! CPU reference models, in f64: the truth the GPU passes are tested against.
+//!
+//! Every function here has a WGSL twin with the same name (and a comment pointing back), so a
+//! GPU readback can be compared value for value. The module is plain Rust — no Bevy render
+//! types — so it also serves CPU queries at run time.
+//!
+//! - [`noise`]: tileable Perlin, Worley, Perlin-Worley and curl noise, the channel recipes of
+//!   the base, detail and weather textures, and the mip box filter. GPU twin:
+//!   `src/render/noise/noise.wgsl`.
+//! - [`render`]: the cloud ray-march — shell geometry on a curved planet, the density model,
+//!   the light march and the energy-conserving integrator — for one ray at a time, sampling the
+//!   same texel data as the GPU; also the CPU queries [`render::density_at`] and
+//!   [`render::transmittance_to_sun`]. GPU twin: `src/render/march/clouds.wgsl`.
+
+pub mod noise;
+pub mod render;

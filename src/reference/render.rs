@@ -1,0 +1,2129 @@
+//! The cloud ray-march in f64: the CPU twin of `src/render/march/clouds.wgsl`.
+//!
+//! Every public function here has a WGSL function of the same name in the shader, and each points
+//! at the other. The GPU march is tested against this module, so a change to a formula must be
+//! made in both places. It is also the engine of the CPU queries a game asks ("is the camera in a
+//! cloud?"): [`density_at`], [`transmittance_to_sun`] and [`is_in_cloud`].
+//!
+//! # Geometry
+//!
+//! The planet is a sphere of radius [`MarchSettings::planet_radius_m`] and every cloud layer a
+//! spherical shell around its centre, between [`MarchLayer::base_m`] and [`MarchLayer::top_m`]
+//! above the ground (seed 002, "Atmosphere": concentric spheres, and a ground sphere that stops
+//! the ray). All positions are **relative to the camera** and every distance along a ray is
+//! computed from the camera altitude `h` and `mu = dot(direction, up)`, never from absolute
+//! positions near the planet centre: in f32 a point 6 371 km from the centre keeps only half a
+//! metre of precision, which is the whole thickness of a tangent ray's error budget.
+//!
+//! - [`intersect_altitude_sphere`]: the distances along a ray to the sphere at an altitude, from
+//!   the discriminant written as `(alt − h)(2R + alt + h) + (R + h)² mu²` (no difference of two
+//!   squared radii) and the stable quadratic (`q = −(b + sign(b)·√disc)`, roots `q` and `c / q`).
+//! - [`altitude_along_ray`]: `alt = h + s / (A + √(A² + s))` with `A = R + h` and
+//!   `s = 2 A mu t + t²`, the altitude at distance `t` without cancelling two planet radii.
+//! - [`shell_segments`] clips a ray to one shell (up to two pieces: through the shell, below its
+//!   base, and back up), [`ground_distance`] stops it at the ground, and
+//!   [`next_cloud_interval`] merges the pieces of every layer, so the march visits only the
+//!   intervals where some layer is, in order, whatever the camera altitude.
+//!
+//! # Density (seed 002, "Density Model"; Schneider 2015)
+//!
+//! [`layer_density`]: the height fraction in the layer picks a density from the layer's
+//! profile (Aetherius' shape-altering curve, piecewise linear here); the weather noise sets a
+//! local coverage ([`local_coverage`]); the base noise (Perlin-Worley carved by Worley fBm,
+//! [`base_shape`]) times the profile is remapped by that coverage; the detail noise erodes the
+//! edges, wispy at the bottom and billowy at the top ([`detail_erosion`]). The result, 0–1, scales
+//! the layer's extinction. [`MarchLayer::shape_strength`] blends the noise in: at 0 a layer is a
+//! homogeneous slab whose density is the profile shaped by coverage only, which has a closed form
+//! ([`homogeneous_slab`]).
+//!
+//! # Light (Hillaire 2016; Wrenninge 2013; seed 002, "Cloud Lighting")
+//!
+//! At each sample the source term is `σs (E_sun · Σᵢ bⁱ e^(−aⁱ τ) p(cⁱ g) + L_ambient(height))`:
+//! `τ` is the optical depth toward the sun from a short light march to the exit of the layer
+//! shell ([`sun_optical_depth`]), the sum over octaves is Wrenninge 2013's multiple-scattering
+//! approximation ([`multiple_scattering`], seed 002 "Multiple Scattering Approximation":
+//! a = 0.3, b = 0.75, c = 0.5, N = 4), `p` the dual-lobe Henyey-Greenstein phase
+//! ([`dual_lobe_phase`], Hillaire 2016) and the ambient sky radiance is interpolated between the
+//! bottom and top of the layer (seed 002, "Day / Night Cycle"). Each step integrates the source
+//! against the transmittance across the step analytically (Hillaire 2016, "Physically Based Sky,
+//! Atmosphere and Cloud Rendering in Frostbite", §5.6.3): `∫₀^dt e^(−σt x) S dx =
+//! S dt (1 − e^(−σt dt)) / (σt dt)`, with the last factor from [`mean_step_transmittance`], which
+//! stays exact as `σt → 0` instead of clamping `σt`.
+//!
+//! # Textures
+//!
+//! [`CloudTextures`] holds exactly the texels the GPU samples: the noise of [`super::noise`]
+//! quantised to `Rgba8Unorm` bytes, with mip levels box-filtered from the quantised level above
+//! and quantised again. Sampling is trilinear with repeat addressing and linear mip interpolation,
+//! texel centres at `(i + 0.5) / n`, as a `linear`/`linear`/`linear`, `repeat` sampler does. The
+//! only differences from the GPU are then f32 against f64 and the GPU's filter-weight precision.
+
+use super::noise::{
+    NoiseRecipe, downsample_3d, generate_base, generate_detail, generate_weather, mip_level_count,
+    mip_size, quantize_unorm8,
+};
+
+/// Earth's mean radius in metres, the default [`MarchSettings::planet_radius_m`].
+pub const EARTH_RADIUS_M: f64 = 6_371_000.0;
+
+/// Most profile control points a layer carries ([`MarchLayer::profile`]).
+pub const MAX_PROFILE_POINTS: usize = 8;
+
+/// Most multiple-scattering octaves evaluated; larger [`MarchSettings::octaves`] are clamped.
+pub const MAX_SCATTERING_OCTAVES: u32 = 8;
+
+/// Most primary steps per interval; larger [`MarchSettings::primary_steps`] are clamped.
+pub const MAX_PRIMARY_STEPS: u32 = 1024;
+
+/// Most light-march steps; larger [`MarchSettings::light_steps`] are clamped.
+pub const MAX_LIGHT_STEPS: u32 = 64;
+
+/// Sub-steps covered by one cheap, base-only sample while the march looks for cloud (the long
+/// stride of Schneider 2015's two-level stepping, seed 002 "Optimization": "Dynamic Steps with
+/// Density").
+pub const CHEAP_STRIDE: u32 = 4;
+
+/// Consecutive empty full-detail samples after which the march goes back to cheap strides.
+pub const EMPTY_STEPS_TO_CHEAP: u32 = 4;
+
+/// Fraction of the scattering albedo that full precipitation removes: a raining layer
+/// ([`MarchLayer::precipitation`] = 1) scatters half of what it extinguishes. An artistic
+/// darkening (rain clouds look dark mostly because they are thick), kept in one place.
+pub const PRECIPITATION_ABSORPTION: f64 = 0.5;
+
+/// Most detail erosion applied, so the erosion remap `(d − e) / (1 − e)` never divides by zero.
+pub const MAX_DETAIL_EROSION: f64 = 0.9;
+
+/// Height fraction over which the detail erosion turns from wispy (at the base) to billowy: seed
+/// 002 blends with `saturate(height_fraction * 5)`, i.e. over the bottom fifth.
+pub const DETAIL_TRANSITION_HEIGHT: f64 = 0.2;
+
+/// Below this optical thickness [`mean_step_transmittance`] uses its Taylor series. The WGSL twin
+/// uses 0.1 with five terms (f32: `1 − e^(−x)` loses digits as `x → 0`); here `expm1` is exact
+/// and the series only avoids `0 / 0`.
+pub const SERIES_LIMIT: f64 = 1e-5;
+
+/// Largest Henyey-Greenstein asymmetry magnitude used: at |g| = 1 the lobe is a Dirac peak and
+/// its denominator vanishes.
+pub const MAX_PHASE_G: f64 = 0.999;
+
+/// Weights of the three Worley fBm channels (G, B, A) of the base texture in the low-frequency
+/// fBm that carves the Perlin-Worley channel (seed 002, Figure 36: 0.625, 0.25, 0.125). The
+/// detail fBm weighs its R, G, B channels the same way.
+pub const FBM_WEIGHTS: [f64; 3] = [0.625, 0.25, 0.125];
+
+/// Returned by [`intersect_altitude_sphere`] for both distances when the ray misses the sphere.
+/// Negative, so callers that keep only `t ≥ 0` treat a miss like a sphere behind the camera.
+pub const NO_HIT: f64 = -1.0;
+
+// ---------------------------------------------------------------------------------------------
+// Parameters
+// ---------------------------------------------------------------------------------------------
+
+/// Settings of one march, the f64 mirror of the shader's `CloudUniforms` (the layout and the Rust
+/// `ShaderType` mirror are documented in `clouds.wgsl`).
+///
+/// Vectors are in world space (Bevy: y up, so the default up is `[0, 1, 0]`). Radiances are in
+/// the units of [`MarchSettings::sun_illuminance`] per steradian (lux → cd/m²); the view exposure
+/// is applied by the caller (on the GPU, the entry shader multiplies the result by it).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MarchSettings {
+    /// Radius of the ground sphere, metres. Default [`EARTH_RADIUS_M`].
+    pub planet_radius_m: f64,
+    /// Camera altitude above the ground sphere, metres, computed in f64. Default 0.
+    pub camera_altitude_m: f64,
+    /// Unit vector from the planet centre through the camera. Default `[0, 1, 0]`.
+    pub camera_up: [f64; 3],
+    /// Unit vector toward the sun. Default: 60° above the horizon toward −z,
+    /// `[0, sin 60°, −cos 60°]`.
+    pub sun_direction: [f64; 3],
+    /// Sun illuminance reaching the clouds, RGB lux, already attenuated by the atmosphere (0 at
+    /// night). Default 100 000 lux, white.
+    pub sun_illuminance: [f64; 3],
+    /// Sky radiance lighting the top of the clouds, RGB cd/m². Default `[4000, 5000, 6500]`.
+    pub ambient_top: [f64; 3],
+    /// Sky radiance lighting the bottom of the clouds, RGB cd/m²: less sky reaches under a
+    /// cloud. Default `[1400, 1700, 2200]`.
+    pub ambient_bottom: [f64; 3],
+    /// Primary steps across each interval where the ray crosses cloud layers, clamped to
+    /// `1..=MAX_PRIMARY_STEPS`. Default 64.
+    pub primary_steps: u32,
+    /// Steps of the light march toward the sun, clamped to `0..=MAX_LIGHT_STEPS` (0: no
+    /// self-shadowing). Default 6.
+    pub light_steps: u32,
+    /// Growth of the primary step length with distance, per metre: a step at distance `t` is
+    /// `1 + step_growth · t` times as long as one at the camera (seed 002, "Dynamic Steps Over
+    /// Distance"). 0 gives uniform steps in each interval. Default 0.001 (steps at 10 km are 11
+    /// times those at the camera).
+    pub step_growth: f64,
+    /// The march stops once the view transmittance falls to this value (seed 002; Schneider
+    /// 2015). 0 marches to the end. Default 0.01.
+    pub transmittance_cutoff: f64,
+    /// Multiple-scattering octaves (Wrenninge 2013), clamped to `1..=MAX_SCATTERING_OCTAVES`;
+    /// 1 is single scattering. Default 4 (seed 002).
+    pub octaves: u32,
+    /// Extinction attenuation `a` per octave (Wrenninge 2013). Default 0.3 (seed 002).
+    pub ms_attenuation: f64,
+    /// Contribution `b` per octave (Wrenninge 2013). Default 0.75 (seed 002).
+    pub ms_contribution: f64,
+    /// Phase eccentricity attenuation `c` per octave (Wrenninge 2013). Default 0.5 (seed 002).
+    pub ms_eccentricity: f64,
+    /// Asymmetry of the forward Henyey-Greenstein lobe (Hillaire 2016). Default 0.8.
+    pub phase_g_forward: f64,
+    /// Asymmetry of the backward lobe, negative. Default −0.3.
+    pub phase_g_back: f64,
+    /// Weight of the backward lobe, 0–1 (the forward lobe gets `1 − blend`). Default 0.2.
+    pub phase_blend: f64,
+    /// Angle one pixel subtends, radians: the footprint of a sample at distance `t` is
+    /// `t · pixel_angle_rad`, and the noise mip level follows it (seed 002, "LODs Over
+    /// Distance"). Default 0.001 (a 60° field of view over about 1000 pixels).
+    pub pixel_angle_rad: f64,
+    /// Jitter the ray start per pixel with interleaved gradient noise ([`ray_start_jitter`]).
+    /// Default true.
+    pub jitter: bool,
+    /// Frame counter that animates the jitter. Default 0.
+    pub frame_index: u32,
+}
+
+impl Default for MarchSettings {
+    fn default() -> Self {
+        let elevation = 60.0_f64.to_radians();
+        Self {
+            planet_radius_m: EARTH_RADIUS_M,
+            camera_altitude_m: 0.0,
+            camera_up: [0.0, 1.0, 0.0],
+            sun_direction: [0.0, elevation.sin(), -elevation.cos()],
+            sun_illuminance: [100_000.0; 3],
+            ambient_top: [4000.0, 5000.0, 6500.0],
+            ambient_bottom: [1400.0, 1700.0, 2200.0],
+            primary_steps: 64,
+            light_steps: 6,
+            step_growth: 0.001,
+            transmittance_cutoff: 0.01,
+            octaves: 4,
+            ms_attenuation: 0.3,
+            ms_contribution: 0.75,
+            ms_eccentricity: 0.5,
+            phase_g_forward: 0.8,
+            phase_g_back: -0.3,
+            phase_blend: 0.2,
+            pixel_angle_rad: 0.001,
+            jitter: true,
+            frame_index: 0,
+        }
+    }
+}
+
+/// One cloud layer as the march sees it, the f64 mirror of the shader's `CloudLayerGpu`.
+///
+/// Filled from the crate's `CloudLayer` (or by hand). Horizontal offsets and skew are in the
+/// noise's horizontal axes ([`horizontal_axes`]: world x and z when up is +y).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MarchLayer {
+    /// Bottom of the layer, metres above the ground. Default 1500.
+    pub base_m: f64,
+    /// Top of the layer, metres above the ground; a layer with `top_m <= base_m` is empty.
+    /// Default 3000.
+    pub top_m: f64,
+    /// Fraction of the sky covered, 0–1: 0 gives no cloud at all (and costs nothing), 1
+    /// overcast. Default 0.5.
+    pub coverage: f64,
+    /// Extinction coefficient of the densest cloud, 1/m. Default 0.05.
+    pub extinction: f64,
+    /// Metres per period of the weather noise (coverage pattern). Default 20 000.
+    pub weather_scale_m: f64,
+    /// Metres per period of the base shape noise. Default 8000.
+    pub shape_scale_m: f64,
+    /// Metres per period of the detail noise. Default 1200.
+    pub detail_scale_m: f64,
+    /// Strength of the detail erosion, clamped to `0..=MAX_DETAIL_EROSION`. Default 0.35
+    /// (seed 002's factor).
+    pub detail_erosion: f64,
+    /// How much the base and detail noise shape the cloud, 0–1: 0 is a homogeneous slab whose
+    /// density is the profile shaped by coverage only. Default 1.
+    pub shape_strength: f64,
+    /// Precipitation darkening, 0–1: lowers the scattering albedo by up to
+    /// [`PRECIPITATION_ABSORPTION`]. Default 0.
+    pub precipitation: f64,
+    /// Offset added to horizontal positions before the weather look-up, metres. The CPU
+    /// accumulates wind and the camera position in f64 and wraps them by the weather period
+    /// ([`MarchLayer::set_noise_origin`]), so f32 never sees a large number. Default 0.
+    pub weather_offset_m: [f64; 2],
+    /// Offset of the base-noise look-up, metres, wrapped by [`MarchLayer::shape_scale_m`].
+    /// Default 0.
+    pub shape_offset_m: [f64; 2],
+    /// Offset of the detail-noise look-up, metres, wrapped by [`MarchLayer::detail_scale_m`].
+    /// Default 0.
+    pub detail_offset_m: [f64; 2],
+    /// Horizontal displacement of the weather look-up per metre above the base (seed 002, "Wind
+    /// and Skew": the clouds lean downwind with height). Default 0.
+    pub skew: [f64; 2],
+    /// Profile control points `(height_fraction, density)`, both 0–1, sorted by height; only the
+    /// first [`MarchLayer::profile_points`] are used. Default: a cumulus-like
+    /// `(0, 0), (0.1, 1), (0.6, 0.8), (1, 0)`.
+    pub profile: [[f64; 2]; MAX_PROFILE_POINTS],
+    /// Number of profile points used, `0..=MAX_PROFILE_POINTS`; 0 means density 1 at every
+    /// height. Default 4.
+    pub profile_points: u32,
+}
+
+impl Default for MarchLayer {
+    fn default() -> Self {
+        let mut layer = Self {
+            base_m: 1500.0,
+            top_m: 3000.0,
+            coverage: 0.5,
+            extinction: 0.05,
+            weather_scale_m: 20_000.0,
+            shape_scale_m: 8000.0,
+            detail_scale_m: 1200.0,
+            detail_erosion: 0.35,
+            shape_strength: 1.0,
+            precipitation: 0.0,
+            weather_offset_m: [0.0; 2],
+            shape_offset_m: [0.0; 2],
+            detail_offset_m: [0.0; 2],
+            skew: [0.0; 2],
+            profile: [[0.0; 2]; MAX_PROFILE_POINTS],
+            profile_points: 0,
+        };
+        layer.set_profile(&[[0.0, 0.0], [0.1, 1.0], [0.6, 0.8], [1.0, 0.0]]);
+        layer
+    }
+}
+
+impl MarchLayer {
+    /// Sets the profile from up to [`MAX_PROFILE_POINTS`] `(height_fraction, density)` points
+    /// (extra points are ignored). The caller sorts them by height.
+    pub fn set_profile(&mut self, points: &[[f64; 2]]) {
+        let count = points.len().min(MAX_PROFILE_POINTS);
+        self.profile = [[0.0; 2]; MAX_PROFILE_POINTS];
+        self.profile[..count].copy_from_slice(&points[..count]);
+        self.profile_points = count as u32;
+    }
+
+    /// Sets the weather, shape and detail offsets from one horizontal noise origin in metres
+    /// (camera position plus accumulated wind drift, in the noise axes, f64), each wrapped by
+    /// its own period with [`wrap_noise_offset`]. The noise then sees `origin + position
+    /// relative to the camera`, exactly periodic, with offsets smaller than one period.
+    pub fn set_noise_origin(&mut self, origin_m: [f64; 2]) {
+        self.weather_offset_m = wrap_noise_offset(origin_m, self.weather_scale_m);
+        self.shape_offset_m = wrap_noise_offset(origin_m, self.shape_scale_m);
+        self.detail_offset_m = wrap_noise_offset(origin_m, self.detail_scale_m);
+    }
+}
+
+/// `offset` wrapped into `[0, period_m)` per axis with a true modulo (`x − p·floor(x / p)`, seed
+/// 000 §5.3), so a negative or huge f64 offset (a week of wind) becomes a small number that f32
+/// holds to a millimetre. A non-positive or non-finite period returns 0.
+pub fn wrap_noise_offset(offset_m: [f64; 2], period_m: f64) -> [f64; 2] {
+    if !(period_m > 0.0 && period_m.is_finite()) {
+        return [0.0; 2];
+    }
+    offset_m.map(|x| {
+        let wrapped = x - period_m * (x / period_m).floor();
+        // Rounding can land exactly on the period; keep the half-open range.
+        if wrapped >= period_m || !wrapped.is_finite() {
+            0.0
+        } else {
+            wrapped
+        }
+    })
+}
+
+/// What a ray sees: in-scattered radiance and view transmittance, composited as
+/// `scene · transmittance + radiance`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MarchResult {
+    /// Radiance scattered toward the camera, RGB, in the units of
+    /// [`MarchSettings::sun_illuminance`] per steradian, before exposure.
+    pub radiance: [f64; 3],
+    /// Fraction of the light behind the clouds that reaches the camera, 0–1.
+    pub transmittance: f64,
+}
+
+impl MarchResult {
+    /// Empty sky: no radiance, transmittance 1.
+    pub const CLEAR: Self = Self {
+        radiance: [0.0; 3],
+        transmittance: 1.0,
+    };
+}
+
+// ---------------------------------------------------------------------------------------------
+// Textures
+// ---------------------------------------------------------------------------------------------
+
+/// A 3D `Rgba8Unorm` texture with its full mip chain, as the GPU holds it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NoiseTexture3d {
+    /// Texels per side of level 0.
+    pub size: u32,
+    /// The mip levels, level 0 first, each `side³` texels, x fastest, then y, then z; level `n`
+    /// has side [`mip_size`] applied `n` times.
+    pub levels: Vec<Vec<[u8; 4]>>,
+}
+
+impl NoiseTexture3d {
+    /// Quantises `level0` (`size³` texels in `[0, 1]`) to bytes and builds the mips as the GPU
+    /// does: each level is [`downsample_3d`] of the *quantised* level above, quantised again.
+    pub fn from_level0(level0: &[[f64; 4]], size: u32) -> Self {
+        let quantise = |texels: &[[f64; 4]]| -> Vec<[u8; 4]> {
+            texels.iter().map(|t| t.map(quantize_unorm8)).collect()
+        };
+        let mut levels = vec![quantise(level0)];
+        let mut side = size;
+        for _ in 1..mip_level_count(size) {
+            let above: Vec<[f64; 4]> = levels
+                .last()
+                .expect("level 0 exists")
+                .iter()
+                .map(|t| t.map(unorm8))
+                .collect();
+            levels.push(quantise(&downsample_3d(&above, side)));
+            side = mip_size(side);
+        }
+        Self { size, levels }
+    }
+
+    /// Side of mip `level`.
+    pub fn level_size(&self, level: usize) -> u32 {
+        (0..level).fold(self.size, |s, _| mip_size(s))
+    }
+
+    /// Trilinear sample of one level at `uvw` (texture units, period 1, repeat addressing).
+    fn sample_level(&self, level: usize, uvw: [f64; 3]) -> [f64; 4] {
+        let n = self.level_size(level);
+        let texels = &self.levels[level];
+        let axes = uvw.map(|c| filter_taps(c, n));
+        let mut sum = [0.0; 4];
+        for corner in 0..8_usize {
+            let pick = |axis: usize| axes[axis][(corner >> axis) & 1];
+            let (x, y, z) = (pick(0), pick(1), pick(2));
+            let weight = x.1 * y.1 * z.1;
+            let index = x.0 as usize + n as usize * (y.0 as usize + n as usize * z.0 as usize);
+            let texel = texels[index];
+            for (s, t) in sum.iter_mut().zip(texel) {
+                *s += weight * unorm8(t);
+            }
+        }
+        sum
+    }
+
+    /// Trilinear sample with linear interpolation between mip levels, like `textureSampleLevel`
+    /// on a `linear`/`linear`/`linear`, `repeat` sampler: `lod` is clamped to the chain.
+    pub fn sample(&self, uvw: [f64; 3], lod: f64) -> [f64; 4] {
+        let last = (self.levels.len() - 1) as f64;
+        let lod = if lod.is_nan() {
+            0.0
+        } else {
+            lod.clamp(0.0, last)
+        };
+        let lower = lod.floor();
+        let fraction = lod - lower;
+        let a = self.sample_level(lower as usize, uvw);
+        if fraction == 0.0 {
+            return a;
+        }
+        let b = self.sample_level(lower as usize + 1, uvw);
+        std::array::from_fn(|c| a[c] + (b[c] - a[c]) * fraction)
+    }
+}
+
+/// A 2D `Rgba8Unorm` texture with one level, as the GPU holds the weather noise.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NoiseTexture2d {
+    /// Texels per side.
+    pub size: u32,
+    /// `size²` texels, x fastest.
+    pub texels: Vec<[u8; 4]>,
+}
+
+impl NoiseTexture2d {
+    /// Quantises `texels` (`size²` values in `[0, 1]`) to bytes.
+    pub fn from_texels(texels: &[[f64; 4]], size: u32) -> Self {
+        Self {
+            size,
+            texels: texels.iter().map(|t| t.map(quantize_unorm8)).collect(),
+        }
+    }
+
+    /// Bilinear sample at `uv` (texture units, repeat addressing), level 0.
+    pub fn sample(&self, uv: [f64; 2]) -> [f64; 4] {
+        let n = self.size;
+        let axes = uv.map(|c| filter_taps(c, n));
+        let mut sum = [0.0; 4];
+        for corner in 0..4_usize {
+            let x = axes[0][corner & 1];
+            let y = axes[1][corner >> 1];
+            let texel = self.texels[x.0 as usize + n as usize * y.0 as usize];
+            for (s, t) in sum.iter_mut().zip(texel) {
+                *s += x.1 * y.1 * unorm8(t);
+            }
+        }
+        sum
+    }
+}
+
+/// The value an `Rgba8Unorm` byte reads as.
+fn unorm8(byte: u8) -> f64 {
+    f64::from(byte) / 255.0
+}
+
+/// The two texels (wrapped index, weight) a linear filter reads along one axis for coordinate
+/// `c` (texture units) on `n` texels: texel centres at `(i + 0.5) / n`, repeat addressing.
+fn filter_taps(c: f64, n: u32) -> [(u32, f64); 2] {
+    let x = c * f64::from(n) - 0.5;
+    let floor = x.floor();
+    let weight = x - floor;
+    let n = i64::from(n);
+    let i0 = (floor as i64).rem_euclid(n);
+    let i1 = (i0 + 1).rem_euclid(n);
+    [(i0 as u32, 1.0 - weight), (i1 as u32, weight)]
+}
+
+/// The noise textures a march samples, byte for byte what the GPU holds (see the module docs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CloudTextures {
+    /// Base shape (R Perlin-Worley, G/B/A Worley fBm), with mips.
+    pub base: NoiseTexture3d,
+    /// Detail (R/G/B Worley fBm), with mips.
+    pub detail: NoiseTexture3d,
+    /// Weather noise (R coverage Perlin-Worley; G variation; B/A curl), one level.
+    pub weather: NoiseTexture2d,
+}
+
+impl CloudTextures {
+    /// Generates the textures of `recipe` at its sizes with [`super::noise`]. Costly at the
+    /// default 128³ (seconds in a release build); tests use small sizes.
+    pub fn from_recipe(recipe: &NoiseRecipe) -> Self {
+        Self {
+            base: NoiseTexture3d::from_level0(
+                &generate_base(recipe, recipe.base_size),
+                recipe.base_size,
+            ),
+            detail: NoiseTexture3d::from_level0(
+                &generate_detail(recipe, recipe.detail_size),
+                recipe.detail_size,
+            ),
+            weather: NoiseTexture2d::from_texels(
+                &generate_weather(recipe, recipe.weather_size),
+                recipe.weather_size,
+            ),
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Small vector helpers (plain arrays: this module does not depend on Bevy)
+// ---------------------------------------------------------------------------------------------
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
+    a.map(|c| c * s)
+}
+
+fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+fn normalize(a: [f64; 3]) -> [f64; 3] {
+    let length = dot(a, a).sqrt();
+    if length > 0.0 {
+        scale(a, 1.0 / length)
+    } else {
+        a
+    }
+}
+
+fn lerp(a: f64, b: f64, t: f64) -> f64 {
+    a + (b - a) * t
+}
+
+fn saturate(x: f64) -> f64 {
+    x.clamp(0.0, 1.0)
+}
+
+/// `x > 0`, false for NaN: `!is_positive(x)` rejects zero, negative and NaN alike.
+fn is_positive(x: f64) -> bool {
+    x > 0.0
+}
+
+// ---------------------------------------------------------------------------------------------
+// Geometry
+// ---------------------------------------------------------------------------------------------
+
+/// Distances `[near, far]` (sorted) along a ray to the sphere at `sphere_altitude_m` above the
+/// ground, for a camera at `camera_altitude_m` whose ray makes `mu = dot(direction, up)` with the
+/// local vertical; `[NO_HIT, NO_HIT]` when the ray misses. Negative distances are behind the
+/// camera.
+///
+/// With `A = R + h` the ray is `|A·up + t·d|² = (R + alt)²`, i.e. `t² + 2bt + c = 0` with
+/// `b = A mu` and `c = (h − alt)(2R + h + alt)`: a product of the small altitude difference, so
+/// a camera on or near the sphere keeps its precision. The discriminant
+/// `(alt − h)(2R + alt + h) + A² mu²` and the stable quadratic `q = −(b + sign(b)·√disc)`, roots
+/// `q` and `c / q`, avoid subtracting nearly equal numbers (seed 002, "Atmosphere", done in
+/// camera-relative form). A tangent ray (`disc = 0`) returns a double root; `q = 0` happens only
+/// for a tangent ray from a camera on the sphere, whose double root is 0. WGSL twin:
+/// `intersect_altitude_sphere`.
+pub fn intersect_altitude_sphere(
+    camera_altitude_m: f64,
+    mu: f64,
+    planet_radius_m: f64,
+    sphere_altitude_m: f64,
+) -> [f64; 2] {
+    let h = camera_altitude_m;
+    let a = planet_radius_m + h;
+    let b = a * mu;
+    let c = (h - sphere_altitude_m) * (2.0 * planet_radius_m + h + sphere_altitude_m);
+    let discriminant =
+        (sphere_altitude_m - h) * (2.0 * planet_radius_m + sphere_altitude_m + h) + b * b;
+    if discriminant.is_nan() || discriminant < 0.0 {
+        return [NO_HIT, NO_HIT];
+    }
+    let sign = if b >= 0.0 { 1.0 } else { -1.0 };
+    let q = -(b + sign * discriminant.sqrt());
+    if q == 0.0 {
+        return [0.0, 0.0];
+    }
+    let (t0, t1) = (q, c / q);
+    [t0.min(t1), t0.max(t1)]
+}
+
+/// Altitude above the ground, metres, of the point at distance `distance_m` along a ray from a
+/// camera at `camera_altitude_m` with `mu = dot(direction, up)`.
+///
+/// `|A·up + t·d| − R` written as `h + s / (A + √(A² + s))` with `A = R + h`, `s = 2 A mu t + t²`:
+/// the difference of two radii of 6 371 km becomes a quotient of small numbers, so the altitude
+/// keeps its precision in f32. WGSL twin: `altitude_along_ray`.
+pub fn altitude_along_ray(
+    camera_altitude_m: f64,
+    mu: f64,
+    distance_m: f64,
+    planet_radius_m: f64,
+) -> f64 {
+    let a = planet_radius_m + camera_altitude_m;
+    let s = 2.0 * a * mu * distance_m + distance_m * distance_m;
+    camera_altitude_m + s / (a + (a * a + s).max(0.0).sqrt())
+}
+
+/// Distance along the ray to the ground sphere, or infinity where the ray does not go into the
+/// ground ahead. A tangent ray grazes without being stopped; a camera on the ground looking down
+/// is stopped at once; a camera below the ground sphere (negative altitude) is not stopped.
+/// WGSL twin: `ground_distance` (which returns [`f32::MAX`] for infinity).
+pub fn ground_distance(camera_altitude_m: f64, mu: f64, planet_radius_m: f64) -> f64 {
+    let [t0, t1] = intersect_altitude_sphere(camera_altitude_m, mu, planet_radius_m, 0.0);
+    if t0 >= 0.0 && t1 > t0 {
+        t0
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// The parts of a ray inside the shell `[base_m, top_m]`: two segments `[start, end]` of
+/// distance (an empty one has `end <= start`), not clipped to the ground or the scene.
+///
+/// Inside the outer sphere `[o0, o1]` and outside the inner sphere: before its near root or
+/// after its far root. A miss is `NO_HIT` for both roots, which makes the formulas give the
+/// right answer without a branch. WGSL twin: `shell_segments` (a `vec4`: first segment in `xy`).
+pub fn shell_segments(
+    camera_altitude_m: f64,
+    mu: f64,
+    planet_radius_m: f64,
+    base_m: f64,
+    top_m: f64,
+) -> [[f64; 2]; 2] {
+    let outer = intersect_altitude_sphere(camera_altitude_m, mu, planet_radius_m, top_m);
+    let inner = intersect_altitude_sphere(camera_altitude_m, mu, planet_radius_m, base_m);
+    let near_start = outer[0].max(0.0);
+    [
+        [near_start, inner[0].min(outer[1])],
+        [inner[1].max(near_start), outer[1]],
+    ]
+}
+
+/// Whether a layer can hold any cloud: positive coverage and extinction and a positive,
+/// finite thickness. Inactive layers are skipped everywhere and cost nothing. WGSL twin:
+/// `layer_is_active`.
+pub fn layer_is_active(layer: &MarchLayer) -> bool {
+    layer.coverage > 0.0
+        && layer.extinction > 0.0
+        && layer.top_m > layer.base_m
+        && (layer.top_m - layer.base_m).is_finite()
+}
+
+/// The next interval `[start, end]` of distance at or after `t_from` where the ray is inside at
+/// least one active layer, clipped to `t_max`: the union of every layer's [`shell_segments`],
+/// overlapping and touching pieces merged, so overlapping layers are marched once.
+/// `start >= end` when nothing is left. WGSL twin: `next_cloud_interval`.
+pub fn next_cloud_interval(
+    layers: &[MarchLayer],
+    planet_radius_m: f64,
+    camera_altitude_m: f64,
+    mu: f64,
+    t_from: f64,
+    t_max: f64,
+) -> [f64; 2] {
+    let segments = || {
+        layers
+            .iter()
+            .filter(|layer| layer_is_active(layer))
+            .flat_map(|layer| {
+                shell_segments(
+                    camera_altitude_m,
+                    mu,
+                    planet_radius_m,
+                    layer.base_m,
+                    layer.top_m,
+                )
+            })
+            .filter(|s| s[1] > s[0] && s[1] > t_from)
+    };
+    let start = segments()
+        .map(|s| s[0].max(t_from))
+        .fold(f64::INFINITY, f64::min);
+    if !is_positive(t_max - start) {
+        return [t_max, t_max];
+    }
+    // Grow the end over every piece that starts inside the interval; each pass adds at least one
+    // piece, so 2 · layers + 1 passes are enough.
+    let mut end = start;
+    for _ in 0..=2 * layers.len() {
+        let mut grown = false;
+        for s in segments() {
+            if s[0] <= end && s[1] > end {
+                end = s[1];
+                grown = true;
+            }
+        }
+        if !grown {
+            break;
+        }
+    }
+    [start, end.min(t_max)]
+}
+
+/// The horizontal axes of the noise, `[x, z]`, orthonormal and perpendicular to `up`: with up
+/// = +y they are world +x and +z, so noise offsets are world x/z offsets. `x` is `up × ẑ`
+/// normalised (`up × x̂` when up is along z). WGSL twin: `horizontal_axes`.
+pub fn horizontal_axes(up: [f64; 3]) -> [[f64; 3]; 2] {
+    let mut x = cross(up, [0.0, 0.0, 1.0]);
+    if dot(x, x) < 1e-6 {
+        x = cross(up, [1.0, 0.0, 0.0]);
+    }
+    let x = normalize(x);
+    [x, cross(x, up)]
+}
+
+/// Steps of an interval grow with distance: boundary `k` of `n` lies at
+/// `start + (end − start) · step_warp(k / n, β)` with `β = g (end − start) / (1 + g · start)`,
+/// which makes each step `1 + g·t` times the length it would have at the camera (a geometric
+/// sequence). `step_warp(u, β) = ((1 + β)^u − 1) / β = expm1(u · ln1p(β)) / β`, written so it
+/// stays accurate for small `β` and equals `u` at `β = 0`. WGSL twin: `step_warp`.
+pub fn step_warp(u: f64, beta: f64) -> f64 {
+    if beta <= 1e-12 {
+        return u;
+    }
+    (u * beta.ln_1p()).exp_m1() / beta
+}
+
+// ---------------------------------------------------------------------------------------------
+// Density
+// ---------------------------------------------------------------------------------------------
+
+/// The layer's profile at `height_fraction` (0 base, 1 top): piecewise linear between its
+/// points, the end values held beyond them, 1 with no points. Aetherius' shape-altering curve
+/// (seed 002, "Density Model"), baked to at most [`MAX_PROFILE_POINTS`] points. WGSL twin:
+/// `profile_density`.
+pub fn profile_density(layer: &MarchLayer, height_fraction: f64) -> f64 {
+    let count = (layer.profile_points as usize).min(MAX_PROFILE_POINTS);
+    if count == 0 {
+        return 1.0;
+    }
+    let points = &layer.profile[..count];
+    let h = height_fraction;
+    if h <= points[0][0] {
+        return points[0][1];
+    }
+    for pair in points.windows(2) {
+        let ([h0, d0], [h1, d1]) = (pair[0], pair[1]);
+        if h <= h1 {
+            let span = h1 - h0;
+            return if span > 0.0 {
+                lerp(d0, d1, (h - h0) / span)
+            } else {
+                d1
+            };
+        }
+    }
+    points[count - 1][1]
+}
+
+/// Range of the weather noise's coverage channel that [`local_coverage`] stretches to 0–1: about
+/// its 3rd and 98th percentiles for the default noise recipe (measured on 128² texels: median
+/// 0.72), so coverage reads as a fraction of the sky.
+pub const WEATHER_COVERAGE_RANGE: [f64; 2] = [0.4, 0.95];
+
+/// Width, in stretched weather units, of the ramp from clear to full local coverage at the edge
+/// of a cloud field in [`local_coverage`]: narrow gives sharp-edged fields, wide gives soft ones.
+pub const COVERAGE_EDGE_WIDTH: f64 = 0.25;
+
+/// Layer coverage from which [`local_coverage`] blends toward overcast, reaching 1 everywhere at
+/// coverage 1 (the weather pattern alone would leave its lowest values clear).
+pub const OVERCAST_COVERAGE: f64 = 0.9;
+
+/// Local coverage `κ`, 0–1, from the layer's `coverage` (0–1) and the weather noise's coverage
+/// channel `weather` (0–1): where the weather map makes clouds form (seed 002, "Density Model").
+///
+/// The weather value is stretched over [`WEATHER_COVERAGE_RANGE`] to `w`; `κ` ramps from 0 at
+/// `w = 1 − coverage` to 1 over [`COVERAGE_EDGE_WIDTH`], so about that fraction of the map holds
+/// cloud; above [`OVERCAST_COVERAGE`] it blends to 1 everywhere. Coverage 0 gives exactly 0
+/// everywhere and coverage 1 exactly 1 (overcast). WGSL twin: `local_coverage`.
+pub fn local_coverage(coverage: f64, weather: f64) -> f64 {
+    if !is_positive(coverage) {
+        return 0.0;
+    }
+    let [low, high] = WEATHER_COVERAGE_RANGE;
+    let w = saturate((weather - low) / (high - low));
+    let field = saturate((w - (1.0 - coverage)) / COVERAGE_EDGE_WIDTH);
+    let overcast = saturate((coverage - OVERCAST_COVERAGE) / (1.0 - OVERCAST_COVERAGE));
+    field.max(overcast)
+}
+
+/// Linear remap of `value` from `[old_min, old_max]` to `[new_min, new_max]` (seed 002, Figure
+/// 30). WGSL twin: `remap`.
+pub fn remap(value: f64, old_min: f64, old_max: f64, new_min: f64, new_max: f64) -> f64 {
+    new_min + (value - old_min) / (old_max - old_min) * (new_max - new_min)
+}
+
+/// The billowy base shape from a base-texture sample: the Perlin-Worley channel R carved by the
+/// low-frequency Worley fBm of G, B, A (weights [`FBM_WEIGHTS`]),
+/// `saturate(remap(R, fbm − 1, 1, 0, 1))` (seed 002, Figure 36; Schneider 2015). WGSL twin:
+/// `base_shape`.
+pub fn base_shape(sample: [f64; 4]) -> f64 {
+    let fbm = sample[1] * FBM_WEIGHTS[0] + sample[2] * FBM_WEIGHTS[1] + sample[3] * FBM_WEIGHTS[2];
+    saturate(remap(sample[0], fbm - 1.0, 1.0, 0.0, 1.0))
+}
+
+/// Detail erosion amount, 0–1, from a detail-texture sample at `height_fraction`: the detail
+/// fBm (R, G, B weighted by [`FBM_WEIGHTS`]) near the base and its inverse above
+/// [`DETAIL_TRANSITION_HEIGHT`], so the bottoms erode into wisps and the tops into billows
+/// (seed 002, Figure 36: `lerp(fbm, 1 − fbm, saturate(h · 5))`; Schneider 2015). WGSL twin:
+/// `detail_erosion`.
+pub fn detail_erosion(sample: [f64; 4], height_fraction: f64) -> f64 {
+    let fbm = sample[0] * FBM_WEIGHTS[0] + sample[1] * FBM_WEIGHTS[1] + sample[2] * FBM_WEIGHTS[2];
+    lerp(
+        fbm,
+        1.0 - fbm,
+        saturate(height_fraction / DETAIL_TRANSITION_HEIGHT),
+    )
+}
+
+/// Mip level for a sample whose footprint is `footprint_m` on a texture whose texels are
+/// `texel_m` apart: `log2(footprint / texel)`, at least 0 (seed 002, "LODs Over Distance").
+/// WGSL twin: `texture_lod`.
+pub fn texture_lod(footprint_m: f64, texel_m: f64) -> f64 {
+    (footprint_m / texel_m).max(1.0).log2()
+}
+
+/// Extinction coefficient, 1/m, of one layer at a point: `horizontal_m` are its coordinates
+/// along [`horizontal_axes`] relative to the camera, metres, `altitude_m` its altitude above the
+/// ground; `footprint_m` picks the mip levels ([`texture_lod`]). `with_detail = false` is the
+/// cheap base-only density of the two-level march: never smaller than the full one, so it finds
+/// every cloud the full density would.
+///
+/// Seed 002's model ("Density Model"; Schneider 2015): the profile at the height fraction times
+/// the base shape, remapped by the local coverage `κ` as `saturate(remap(shape · profile, 1 − κ,
+/// 1, 0, 1)) · κ`, then eroded by the detail, `saturate(remap(d, erosion, 1, 0, 1))`. The shape
+/// and the erosion are blended in by [`MarchLayer::shape_strength`]; at 0 there is no noise and a
+/// layer of coverage 1 is exactly its profile. Coverage 0 returns exactly 0. WGSL twin:
+/// `layer_density`.
+pub fn layer_density(
+    textures: &CloudTextures,
+    layer: &MarchLayer,
+    horizontal_m: [f64; 2],
+    altitude_m: f64,
+    footprint_m: f64,
+    with_detail: bool,
+) -> f64 {
+    let inside = altitude_m >= layer.base_m && altitude_m <= layer.top_m;
+    if !layer_is_active(layer) || !inside {
+        return 0.0;
+    }
+    let height_above_base = altitude_m - layer.base_m;
+    let height_fraction = height_above_base / (layer.top_m - layer.base_m);
+    let profile = profile_density(layer, height_fraction);
+    if !is_positive(profile) {
+        return 0.0;
+    }
+    // Full coverage is overcast whatever the weather says: no look-up needed.
+    let kappa = if layer.coverage >= 1.0 {
+        1.0
+    } else {
+        let uv = [0, 1].map(|a| {
+            (horizontal_m[a] + layer.weather_offset_m[a] + layer.skew[a] * height_above_base)
+                / layer.weather_scale_m
+        });
+        local_coverage(layer.coverage, textures.weather.sample(uv)[0])
+    };
+    if !is_positive(kappa) {
+        return 0.0;
+    }
+    let strength = saturate(layer.shape_strength);
+    let mut shape = 1.0;
+    if strength > 0.0 {
+        let uvw = [
+            (horizontal_m[0] + layer.shape_offset_m[0]) / layer.shape_scale_m,
+            altitude_m / layer.shape_scale_m,
+            (horizontal_m[1] + layer.shape_offset_m[1]) / layer.shape_scale_m,
+        ];
+        let texel_m = layer.shape_scale_m / f64::from(textures.base.size);
+        let sample = textures.base.sample(uvw, texture_lod(footprint_m, texel_m));
+        shape = lerp(1.0, base_shape(sample), strength);
+    }
+    let covered = saturate(remap(shape * profile, 1.0 - kappa, 1.0, 0.0, 1.0)) * kappa;
+    let erosion_strength = layer.detail_erosion.clamp(0.0, MAX_DETAIL_EROSION) * strength;
+    if !with_detail || !is_positive(erosion_strength) || !is_positive(covered) {
+        return covered * layer.extinction;
+    }
+    let uvw = [
+        (horizontal_m[0] + layer.detail_offset_m[0]) / layer.detail_scale_m,
+        altitude_m / layer.detail_scale_m,
+        (horizontal_m[1] + layer.detail_offset_m[1]) / layer.detail_scale_m,
+    ];
+    let texel_m = layer.detail_scale_m / f64::from(textures.detail.size);
+    let sample = textures
+        .detail
+        .sample(uvw, texture_lod(footprint_m, texel_m));
+    let erosion = erosion_strength * detail_erosion(sample, height_fraction);
+    saturate(remap(covered, erosion, 1.0, 0.0, 1.0)) * layer.extinction
+}
+
+/// Scattering albedo of a layer: 1 (cloud droplets barely absorb) lowered by precipitation
+/// ([`PRECIPITATION_ABSORPTION`]). WGSL twin: `scattering_albedo`.
+pub fn scattering_albedo(layer: &MarchLayer) -> f64 {
+    1.0 - PRECIPITATION_ABSORPTION * saturate(layer.precipitation)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Light
+// ---------------------------------------------------------------------------------------------
+
+/// Henyey-Greenstein phase function, 1/sr: `(1 − g²) / (4π (1 + g² − 2g cos θ)^1.5)`, `g`
+/// clamped to `±MAX_PHASE_G` so the peak stays finite. WGSL twin: `henyey_greenstein`.
+pub fn henyey_greenstein(cos_theta: f64, g: f64) -> f64 {
+    let g = g.clamp(-MAX_PHASE_G, MAX_PHASE_G);
+    let denominator = (1.0 + g * g - 2.0 * g * cos_theta).max(1e-12);
+    (1.0 - g * g) / (4.0 * std::f64::consts::PI * denominator * denominator.sqrt())
+}
+
+/// Dual-lobe phase (Hillaire 2016, after Schneider 2015's silver lining): a forward lobe
+/// blended with a backward one, `(1 − blend) HG(g_forward) + blend HG(g_back)`, 1/sr. WGSL twin:
+/// `dual_lobe_phase`.
+pub fn dual_lobe_phase(cos_theta: f64, g_forward: f64, g_back: f64, blend: f64) -> f64 {
+    let blend = saturate(blend);
+    (1.0 - blend) * henyey_greenstein(cos_theta, g_forward)
+        + blend * henyey_greenstein(cos_theta, g_back)
+}
+
+/// Wrenninge 2013 ("Oz: the great and volumetric") multiple-scattering approximation, 1/sr:
+/// `Σᵢ bⁱ e^(−aⁱ τ) p(cⁱ g)` over [`MarchSettings::octaves`] octaves, the sun transmittance
+/// through optical depth `optical_depth` weighted by the dual-lobe phase at `cos_theta` (seed
+/// 002, "Multiple Scattering Approximation", Figure 45). Each octave lets more light through
+/// (a < 1) with a flatter phase (c < 1), standing in for light scattered more than once. Octave 0
+/// is single scattering. WGSL twin: `multiple_scattering`.
+pub fn multiple_scattering(settings: &MarchSettings, optical_depth: f64, cos_theta: f64) -> f64 {
+    let octaves = settings.octaves.clamp(1, MAX_SCATTERING_OCTAVES);
+    let (mut a, mut b, mut c) = (1.0, 1.0, 1.0);
+    let mut sum = 0.0;
+    for _ in 0..octaves {
+        let phase = dual_lobe_phase(
+            cos_theta,
+            c * settings.phase_g_forward,
+            c * settings.phase_g_back,
+            settings.phase_blend,
+        );
+        sum += b * (-a * optical_depth).exp() * phase;
+        a *= settings.ms_attenuation;
+        b *= settings.ms_contribution;
+        c *= settings.ms_eccentricity;
+    }
+    sum
+}
+
+/// Length of the light march from a point at `altitude_m` toward a sun at `mu_sun = dot(sun,
+/// local up)`: the distance to where the ray leaves the shell of every active layer that holds
+/// the point (through the top, or through the base when the sun is low), the longest of them.
+/// Negative when the ground blocks the sun (the point is in the planet's shadow). 0 outside
+/// every layer. WGSL twin: `light_march_distance`.
+pub fn light_march_distance(
+    layers: &[MarchLayer],
+    planet_radius_m: f64,
+    altitude_m: f64,
+    mu_sun: f64,
+) -> f64 {
+    if ground_distance(altitude_m, mu_sun, planet_radius_m).is_finite() {
+        return -1.0;
+    }
+    let mut distance: f64 = 0.0;
+    for layer in layers.iter().filter(|layer| layer_is_active(layer)) {
+        if !(altitude_m >= layer.base_m && altitude_m <= layer.top_m) {
+            continue;
+        }
+        let outer = intersect_altitude_sphere(altitude_m, mu_sun, planet_radius_m, layer.top_m);
+        let inner = intersect_altitude_sphere(altitude_m, mu_sun, planet_radius_m, layer.base_m);
+        let through_base = if inner[0] >= 0.0 {
+            inner[0]
+        } else {
+            f64::INFINITY
+        };
+        distance = distance.max(outer[1].max(0.0).min(through_base));
+    }
+    distance
+}
+
+/// Optical depth toward the sun from the point `position_m` (relative to a camera at
+/// `camera_altitude_m` with local vertical `up`) at `altitude_m`, by a light march of [`MarchSettings::light_steps`] steps over
+/// [`light_march_distance`]; negative when the ground blocks the sun.
+///
+/// Step boundaries lie at `D (k / n)²`: short steps near the point, where the self-shadowing
+/// detail is, long ones far away; each step samples its midpoint, so a homogeneous layer is
+/// integrated exactly. Altitudes along the light ray come from [`altitude_along_ray`] relative to
+/// the point. The footprint of a light sample is at least its step length, so long steps read
+/// coarse mips. Only the shells that hold the point are marched; shadows cast by a separate
+/// higher layer are left to the cloud shadow map. WGSL twin: `sun_optical_depth`.
+pub fn sun_optical_depth(
+    textures: &CloudTextures,
+    settings: &MarchSettings,
+    layers: &[MarchLayer],
+    camera_altitude_m: f64,
+    up: [f64; 3],
+    position_m: [f64; 3],
+    altitude_m: f64,
+    footprint_m: f64,
+) -> f64 {
+    let radius = settings.planet_radius_m;
+    let sun = settings.sun_direction;
+    let camera_radius = radius + camera_altitude_m;
+    // Local up at the point is (A·up + p) / (R + alt); only its dot with the sun is needed.
+    let mu_sun = ((camera_radius * dot(sun, up) + dot(sun, position_m)) / (radius + altitude_m))
+        .clamp(-1.0, 1.0);
+    let distance = light_march_distance(layers, radius, altitude_m, mu_sun);
+    if distance < 0.0 {
+        return -1.0;
+    }
+    let steps = settings.light_steps.min(MAX_LIGHT_STEPS);
+    if steps == 0 || distance == 0.0 {
+        return 0.0;
+    }
+    let axes = horizontal_axes(up);
+    let n = f64::from(steps);
+    let mut optical_depth = 0.0;
+    for k in 0..steps {
+        let s0 = distance * (f64::from(k) / n).powi(2);
+        let s1 = distance * (f64::from(k + 1) / n).powi(2);
+        let s = 0.5 * (s0 + s1);
+        let ds = s1 - s0;
+        let point = add(position_m, scale(sun, s));
+        let altitude = altitude_along_ray(altitude_m, mu_sun, s, radius);
+        let horizontal = [dot(point, axes[0]), dot(point, axes[1])];
+        let extinction: f64 = layers
+            .iter()
+            .map(|layer| {
+                layer_density(
+                    textures,
+                    layer,
+                    horizontal,
+                    altitude,
+                    footprint_m.max(ds),
+                    true,
+                )
+            })
+            .sum();
+        optical_depth += extinction * ds;
+    }
+    optical_depth
+}
+
+/// Mean transmittance across a step of optical thickness `x = σt·dt`, `(1 − e^(−x)) / x =
+/// −expm1(−x) / x`: the factor of Hillaire 2016's energy-conserving step integral
+/// `S·dt·f(x)`. Exact as `x → 0` (series `1 − x/2 + x²/6`, no clamped division, no `0 / 0` at
+/// `σt = 0`) and `1 / x` for large `x` (no overflow, finite at `x = ∞`: 0). WGSL twin:
+/// `mean_step_transmittance` (series below 0.1 there, since f32 has no `expm1`).
+pub fn mean_step_transmittance(x: f64) -> f64 {
+    let x = x.max(0.0);
+    if x < SERIES_LIMIT {
+        1.0 - x * (0.5 - x / 6.0)
+    } else {
+        -(-x).exp_m1() / x
+    }
+}
+
+/// Interleaved gradient noise (Jimenez 2014, "Next Generation Post Processing in Call of Duty:
+/// Advanced Warfare"): `fract(52.9829189 · fract(0.06711056 x + 0.00583715 y))` at `pixel`
+/// (pixel coordinates), shifted by `5.588238 · (frame mod 64)` pixels per frame so the pattern
+/// moves for temporal accumulation. In `[0, 1)`. WGSL twin: `interleaved_gradient_noise` (in
+/// f32: the two differ by about `1e-3` at pixel coordinates in the thousands).
+pub fn interleaved_gradient_noise(pixel: [f64; 2], frame: u32) -> f64 {
+    let shift = 5.588_238 * f64::from(frame % 64);
+    let x = pixel[0] + shift;
+    let y = pixel[1] + shift;
+    let inner = (0.067_110_56 * x + 0.005_837_15 * y).rem_euclid(1.0);
+    (52.982_918_9 * inner).rem_euclid(1.0)
+}
+
+/// Offset of the first sample within each step, 0–1: interleaved gradient noise at `pixel` when
+/// [`MarchSettings::jitter`] is on (against banding, seed 002 "Banding Reduction"), the step
+/// midpoint 0.5 when off. WGSL twin: `ray_start_jitter`.
+pub fn ray_start_jitter(settings: &MarchSettings, pixel: [f64; 2]) -> f64 {
+    if settings.jitter {
+        interleaved_gradient_noise(pixel, settings.frame_index)
+    } else {
+        0.5
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The march
+// ---------------------------------------------------------------------------------------------
+
+/// One ray's state and constants, shared by the steps of [`march_clouds`].
+struct Ray<'a> {
+    textures: &'a CloudTextures,
+    settings: &'a MarchSettings,
+    layers: &'a [MarchLayer],
+    camera_altitude_m: f64,
+    up: [f64; 3],
+    mu: f64,
+    direction: [f64; 3],
+    horizontal_direction: [f64; 2],
+    /// Cosine of the angle between the view ray and the sun, for the phase function.
+    cos_sun: f64,
+    sun_on: bool,
+    jitter: f64,
+    transmittance: f64,
+    radiance: [f64; 3],
+}
+
+impl Ray<'_> {
+    fn altitude(&self, t: f64) -> f64 {
+        altitude_along_ray(
+            self.camera_altitude_m,
+            self.mu,
+            t,
+            self.settings.planet_radius_m,
+        )
+    }
+
+    fn horizontal(&self, t: f64) -> [f64; 2] {
+        self.horizontal_direction.map(|c| c * t)
+    }
+
+    /// Sum of the cheap (base-only) extinction of every layer at distance `t`.
+    fn cheap_extinction(&self, t: f64) -> f64 {
+        let altitude = self.altitude(t);
+        let horizontal = self.horizontal(t);
+        let footprint = t * self.settings.pixel_angle_rad;
+        self.layers
+            .iter()
+            .map(|layer| {
+                layer_density(self.textures, layer, horizontal, altitude, footprint, false)
+            })
+            .sum()
+    }
+
+    /// One full-detail step over `[ta, tb]`, sampled at the jittered point; returns whether it
+    /// found cloud.
+    fn step(&mut self, ta: f64, tb: f64) -> bool {
+        let settings = self.settings;
+        let dt = tb - ta;
+        let t = ta + self.jitter * dt;
+        let altitude = self.altitude(t);
+        let horizontal = self.horizontal(t);
+        let footprint = t * settings.pixel_angle_rad;
+        let mut extinction = 0.0;
+        let mut scattering = 0.0;
+        let mut ambient = [0.0; 3];
+        for layer in self.layers {
+            let sigma = layer_density(self.textures, layer, horizontal, altitude, footprint, true);
+            if sigma > 0.0 {
+                let sigma_s = sigma * scattering_albedo(layer);
+                // Ambient sky light grows from the base to the top of the layer (seed 002,
+                // "Day / Night Cycle").
+                let h = saturate((altitude - layer.base_m) / (layer.top_m - layer.base_m));
+                for (c, a) in ambient.iter_mut().enumerate() {
+                    *a += sigma_s * lerp(settings.ambient_bottom[c], settings.ambient_top[c], h);
+                }
+                extinction += sigma;
+                scattering += sigma_s;
+            }
+        }
+        if !is_positive(extinction) {
+            return false;
+        }
+        let mut sun = 0.0;
+        if self.sun_on {
+            let position = scale(self.direction, t);
+            let optical_depth = sun_optical_depth(
+                self.textures,
+                settings,
+                self.layers,
+                self.camera_altitude_m,
+                self.up,
+                position,
+                altitude,
+                footprint,
+            );
+            if optical_depth >= 0.0 {
+                sun = multiple_scattering(settings, optical_depth, self.cos_sun);
+            }
+        }
+        // Hillaire 2016: ∫ T(x) S dx over the step = T · S · dt · (1 − e^(−σt dt)) / (σt dt).
+        let x = extinction * dt;
+        let weight = self.transmittance * dt * mean_step_transmittance(x);
+        for ((radiance, illuminance), ambient) in self
+            .radiance
+            .iter_mut()
+            .zip(settings.sun_illuminance)
+            .zip(ambient)
+        {
+            *radiance += weight * (scattering * illuminance * sun + ambient);
+        }
+        self.transmittance *= (-x).exp();
+        true
+    }
+
+    /// Marches `[start, end]` in `primary_steps` steps growing with distance, with
+    /// Schneider 2015's two-level stepping; returns false once the transmittance cut-off is hit.
+    fn march_interval(&mut self, start: f64, end: f64) -> bool {
+        let settings = self.settings;
+        let steps = settings.primary_steps.clamp(1, MAX_PRIMARY_STEPS);
+        let growth = settings.step_growth.max(0.0);
+        let beta = growth * (end - start) / (1.0 + growth * start);
+        let n = f64::from(steps);
+        let boundary = |k: u32| start + (end - start) * step_warp(f64::from(k) / n, beta);
+        let cutoff = settings.transmittance_cutoff;
+        let mut k = 0;
+        let mut cheap = true;
+        let mut empty = 0;
+        // Each pass advances k or switches cheap → detail (which then advances k), so 2n + 2
+        // passes always suffice; the bound mirrors the WGSL twin's loop guard.
+        for _ in 0..2 * steps + 2 {
+            if k >= steps {
+                break;
+            }
+            if cheap {
+                let k2 = (k + CHEAP_STRIDE).min(steps);
+                let (ta, tb) = (boundary(k), boundary(k2));
+                if self.cheap_extinction(ta + self.jitter * (tb - ta)) > 0.0 {
+                    // Cloud ahead: march this stride again in full detail.
+                    cheap = false;
+                    empty = 0;
+                } else {
+                    k = k2;
+                }
+                continue;
+            }
+            if self.step(boundary(k), boundary(k + 1)) {
+                empty = 0;
+                if self.transmittance <= cutoff {
+                    return false;
+                }
+            } else {
+                empty += 1;
+                if empty >= EMPTY_STEPS_TO_CHEAP {
+                    cheap = true;
+                }
+            }
+            k += 1;
+        }
+        true
+    }
+}
+
+/// Marches one view ray through the cloud layers: the in-scattered radiance and the view
+/// transmittance, composited as `scene · T + L`.
+///
+/// The camera is at `camera_altitude_m` above the ground with local vertical `up`; `direction`
+/// is the unit view ray (world space), `t_max` the distance to the scene along it (infinity for
+/// the sky), `jitter` the offset of each sample within its step, 0–1 ([`ray_start_jitter`]).
+/// The ray visits only the intervals where it crosses active layers ([`next_cloud_interval`],
+/// stopped at the ground), each in [`MarchSettings::primary_steps`] steps that grow with
+/// distance; cheap base-only samples stride through empty space and full-detail samples light
+/// the cloud (seed 002, "Optimization"); the march stops once the transmittance reaches
+/// [`MarchSettings::transmittance_cutoff`]. At most `2 · layers + 1` intervals are visited.
+/// WGSL twin: `march_clouds`.
+pub fn march_clouds(
+    textures: &CloudTextures,
+    settings: &MarchSettings,
+    layers: &[MarchLayer],
+    camera_altitude_m: f64,
+    up: [f64; 3],
+    direction: [f64; 3],
+    t_max: f64,
+    jitter: f64,
+) -> MarchResult {
+    let radius = settings.planet_radius_m;
+    let mu = dot(direction, up).clamp(-1.0, 1.0);
+    let t_end = t_max.min(ground_distance(camera_altitude_m, mu, radius));
+    if !is_positive(t_end) {
+        return MarchResult::CLEAR;
+    }
+    let axes = horizontal_axes(up);
+    let mut ray = Ray {
+        textures,
+        settings,
+        layers,
+        camera_altitude_m,
+        up,
+        mu,
+        direction,
+        horizontal_direction: [dot(direction, axes[0]), dot(direction, axes[1])],
+        cos_sun: dot(direction, settings.sun_direction).clamp(-1.0, 1.0),
+        sun_on: settings.sun_illuminance.iter().any(|&e| e > 0.0),
+        jitter: saturate(jitter),
+        transmittance: 1.0,
+        radiance: [0.0; 3],
+    };
+    let mut t = 0.0;
+    for _ in 0..=2 * layers.len() {
+        let [start, end] = next_cloud_interval(layers, radius, camera_altitude_m, mu, t, t_end);
+        if !is_positive(end - start) || !ray.march_interval(start, end) {
+            break;
+        }
+        t = end;
+    }
+    MarchResult {
+        radiance: ray.radiance,
+        transmittance: ray.transmittance,
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// CPU queries
+// ---------------------------------------------------------------------------------------------
+
+/// Altitude above the ground of `position_m`, a point relative to the camera.
+fn altitude_of(settings: &MarchSettings, position_m: [f64; 3]) -> f64 {
+    let distance = dot(position_m, position_m).sqrt();
+    if distance == 0.0 {
+        return settings.camera_altitude_m;
+    }
+    let mu = (dot(position_m, settings.camera_up) / distance).clamp(-1.0, 1.0);
+    altitude_along_ray(
+        settings.camera_altitude_m,
+        mu,
+        distance,
+        settings.planet_radius_m,
+    )
+}
+
+/// Cloud extinction coefficient, 1/m, at `position_m` (world-space metres relative to the
+/// camera; `[0, 0, 0]` is the camera), summed over the layers, at full detail and the finest mip.
+/// Greater than 0 exactly where the GPU draws cloud. For "is the camera in a cloud?" see
+/// [`is_in_cloud`].
+pub fn density_at(
+    textures: &CloudTextures,
+    settings: &MarchSettings,
+    layers: &[MarchLayer],
+    position_m: [f64; 3],
+) -> f64 {
+    let altitude = altitude_of(settings, position_m);
+    let axes = horizontal_axes(settings.camera_up);
+    let horizontal = [dot(position_m, axes[0]), dot(position_m, axes[1])];
+    layers
+        .iter()
+        .map(|layer| layer_density(textures, layer, horizontal, altitude, 0.0, true))
+        .sum()
+}
+
+/// Whether `position_m` (relative to the camera) is inside cloud: [`density_at`] > 0.
+pub fn is_in_cloud(
+    textures: &CloudTextures,
+    settings: &MarchSettings,
+    layers: &[MarchLayer],
+    position_m: [f64; 3],
+) -> bool {
+    density_at(textures, settings, layers, position_m) > 0.0
+}
+
+/// Fraction of direct sunlight reaching `position_m` (relative to the camera) through the
+/// clouds, 0–1: `e^(−τ)` of the light march ([`sun_optical_depth`]) of the layers that hold the
+/// point, 0 in the planet's shadow, 1 outside every layer. Single scattering only: the
+/// multiple-scattering octaves are a lighting approximation, not a transmittance.
+pub fn transmittance_to_sun(
+    textures: &CloudTextures,
+    settings: &MarchSettings,
+    layers: &[MarchLayer],
+    position_m: [f64; 3],
+) -> f64 {
+    let altitude = altitude_of(settings, position_m);
+    let optical_depth = sun_optical_depth(
+        textures,
+        settings,
+        layers,
+        settings.camera_altitude_m,
+        settings.camera_up,
+        position_m,
+        altitude,
+        0.0,
+    );
+    if optical_depth < 0.0 {
+        0.0
+    } else {
+        (-optical_depth).exp()
+    }
+}
+
+/// Closed form of the march for a homogeneous slab: `layer` with coverage 1, shape strength 0
+/// and a flat profile of 1 (constant extinction `σ` from base to top), seen from a camera below
+/// it looking straight up along [`MarchSettings::camera_up`], lit by the sun and the ambient sky.
+///
+/// With `u` the height above the base, `H` the thickness, `μs = dot(sun, up) > 0`, `σs = albedo
+/// · σ`, and the light march reaching the top along the sun (`(H − u) / μs` in the plane-parallel
+/// limit): `T = e^(−σH)` and
+/// `L = Σᵢ bⁱ pᵢ E σs ∫₀^H e^(−σu) e^(−aⁱ σ (H − u) / μs) du + σs ∫₀^H e^(−σu) A(u) du` with
+/// `A` linear from the bottom to the top ambient. With `k = aⁱ / μs` the first integral is
+/// `e^(−σH) H f(σH (k − 1))` for `k ≥ 1` and `e^(−kσH) H f(σH (1 − k))` otherwise, and the second
+/// is `albedo (A_b (1 − e^(−σH)) + (A_t − A_b)(f(σH) − e^(−σH)))`, `f` being
+/// [`mean_step_transmittance`] and the last difference a series for small `σH`: stable for
+/// `σ → 0` and huge `σ`.
+///
+/// Exact on the curved planet for a sun at the zenith (the light ray is radial); for a lower sun
+/// the curvature of the top sphere over the light path changes `τ` by about `(H tan θs)² / 2R`
+/// metres, negligible for kilometre-thick slabs. Returns [`MarchResult::CLEAR`] for an inactive
+/// layer and no sun term when the sun is at or below the horizon.
+pub fn homogeneous_slab(settings: &MarchSettings, layer: &MarchLayer) -> MarchResult {
+    if !layer_is_active(layer) {
+        return MarchResult::CLEAR;
+    }
+    let sigma = layer.extinction;
+    let thickness = layer.top_m - layer.base_m;
+    let x = sigma * thickness;
+    let albedo = scattering_albedo(layer);
+    let transmittance = (-x).exp();
+    let mu_sun = dot(settings.sun_direction, settings.camera_up).clamp(-1.0, 1.0);
+    let f = mean_step_transmittance;
+    // Σᵢ bⁱ pᵢ ∫ e^(−σu) e^(−aⁱσ(H−u)/μs) du, times σ.
+    let mut sun = 0.0;
+    if mu_sun > 0.0 {
+        let octaves = settings.octaves.clamp(1, MAX_SCATTERING_OCTAVES);
+        let (mut a, mut b, mut c) = (1.0, 1.0, 1.0);
+        for _ in 0..octaves {
+            let phase = dual_lobe_phase(
+                mu_sun,
+                c * settings.phase_g_forward,
+                c * settings.phase_g_back,
+                settings.phase_blend,
+            );
+            let k = a / mu_sun;
+            let integral = if k >= 1.0 {
+                transmittance * x * f(x * (k - 1.0))
+            } else {
+                (-k * x).exp() * x * f(x * (1.0 - k))
+            };
+            sun += b * phase * integral;
+            a *= settings.ms_attenuation;
+            b *= settings.ms_contribution;
+            c *= settings.ms_eccentricity;
+        }
+    }
+    let ambient_shape = ambient_gradient_integral(x);
+    let opacity = -(-x).exp_m1();
+    let radiance = std::array::from_fn(|c| {
+        let (bottom, top) = (settings.ambient_bottom[c], settings.ambient_top[c]);
+        albedo
+            * (settings.sun_illuminance[c] * sun
+                + bottom * opacity
+                + (top - bottom) * ambient_shape)
+    });
+    MarchResult {
+        radiance,
+        transmittance,
+    }
+}
+
+/// `f(x) − e^(−x)` with `f` = [`mean_step_transmittance`]: the ambient-gradient term of
+/// [`homogeneous_slab`], `∫₀¹ x s e^(−x s) ds`. Both terms tend to 1 as `x → 0`, so small `x` uses
+/// the series `Σₙ (−1)ⁿ⁺¹ n xⁿ / (n + 1)!` (`x/2 − x²/3 + x³/8 − …`).
+fn ambient_gradient_integral(x: f64) -> f64 {
+    if x < 0.1 {
+        let mut term = 1.0;
+        let mut sum = 0.0;
+        for n in 1..=10_i32 {
+            // term = (−x)ⁿ / (n + 1)!
+            term *= -x / f64::from(n + 1);
+            sum -= f64::from(n) * term;
+        }
+        sum
+    } else {
+        mean_step_transmittance(x) - (-x).exp()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::OnceLock;
+
+    /// Small textures (the default recipe's channels at 16³, 8³ and 32²): the march samples them
+    /// exactly as it would the full-size ones, and a debug build generates them in a blink.
+    fn textures() -> &'static CloudTextures {
+        static TEXTURES: OnceLock<CloudTextures> = OnceLock::new();
+        TEXTURES.get_or_init(|| {
+            CloudTextures::from_recipe(&NoiseRecipe {
+                base_size: 16,
+                detail_size: 8,
+                weather_size: 32,
+                ..NoiseRecipe::default()
+            })
+        })
+    }
+
+    const UP: [f64; 3] = [0.0, 1.0, 0.0];
+
+    /// A homogeneous slab from 1000 to 2000 m: coverage 1, no noise, flat profile.
+    fn slab(extinction: f64) -> MarchLayer {
+        let mut layer = MarchLayer {
+            base_m: 1000.0,
+            top_m: 2000.0,
+            coverage: 1.0,
+            extinction,
+            shape_strength: 0.0,
+            ..MarchLayer::default()
+        };
+        layer.set_profile(&[[0.0, 1.0], [1.0, 1.0]]);
+        layer
+    }
+
+    /// Sun at `elevation_deg` above the horizon toward −z, one octave, no cut-off, no jitter.
+    fn slab_settings(steps: u32, elevation_deg: f64) -> MarchSettings {
+        let e = elevation_deg.to_radians();
+        MarchSettings {
+            primary_steps: steps,
+            sun_direction: [0.0, e.sin(), -e.cos()],
+            octaves: 1,
+            transmittance_cutoff: 0.0,
+            jitter: false,
+            ..MarchSettings::default()
+        }
+    }
+
+    fn march_up(settings: &MarchSettings, layers: &[MarchLayer]) -> MarchResult {
+        march_clouds(
+            textures(),
+            settings,
+            layers,
+            settings.camera_altitude_m,
+            UP,
+            UP,
+            f64::INFINITY,
+            0.5,
+        )
+    }
+
+    fn relative_error(a: f64, b: f64) -> f64 {
+        if a == b {
+            0.0
+        } else {
+            (a - b).abs() / a.abs().max(b.abs())
+        }
+    }
+
+    fn assert_sane(result: &MarchResult, what: &str) {
+        assert!(
+            result.transmittance.is_finite() && (0.0..=1.0).contains(&result.transmittance),
+            "{what}: transmittance {}",
+            result.transmittance
+        );
+        for c in result.radiance {
+            assert!(
+                c.is_finite() && c >= 0.0,
+                "{what}: radiance {:?}",
+                result.radiance
+            );
+        }
+    }
+
+    #[test]
+    fn mean_step_transmittance_is_stable_at_both_ends() {
+        assert_eq!(mean_step_transmittance(0.0), 1.0);
+        assert_eq!(mean_step_transmittance(-1.0), 1.0);
+        for x in [1e-300_f64, 1e-12, 1e-6, 9.99e-6, 1e-5, 1e-3, 0.1, 1.0, 10.0] {
+            // Reference: the series to many terms for small x, the direct form for large.
+            let reference = if x < 0.01 {
+                1.0 - x / 2.0 + x * x / 6.0 - x.powi(3) / 24.0 + x.powi(4) / 120.0
+            } else {
+                (1.0 - (-x).exp()) / x
+            };
+            let value = mean_step_transmittance(x);
+            assert!(
+                relative_error(value, reference) < 1e-13,
+                "f({x}) = {value}, expected {reference}"
+            );
+        }
+        assert_eq!(mean_step_transmittance(1e4), 1e-4);
+        assert_eq!(mean_step_transmittance(1e300), 1e-300);
+        assert_eq!(mean_step_transmittance(f64::INFINITY), 0.0);
+        for x in [0.05, 0.099_999, 0.1, 0.5] {
+            let direct = mean_step_transmittance(x) - (-x).exp();
+            assert!(
+                relative_error(ambient_gradient_integral(x), direct) < 1e-12,
+                "{x}"
+            );
+        }
+        assert!(relative_error(ambient_gradient_integral(1e-9), 0.5e-9) < 1e-9);
+    }
+
+    #[test]
+    fn sphere_intersections_are_exact_in_simple_cases() {
+        let r = EARTH_RADIUS_M;
+        // Straight up from the ground to 1000 m: the far root is 1000 m, the near one through
+        // the planet.
+        assert_eq!(
+            intersect_altitude_sphere(0.0, 1.0, r, 1000.0),
+            [-(2.0 * r + 1000.0), 1000.0]
+        );
+        // Straight down from 3000 m to 1000 m.
+        let [near, far] = intersect_altitude_sphere(3000.0, -1.0, r, 1000.0);
+        assert_eq!(near, 2000.0);
+        assert!((far - (2.0 * r + 4000.0)).abs() < 1e-6);
+        // Horizontal from the ground: √((R + a)² − R²).
+        let [_, far] = intersect_altitude_sphere(0.0, 0.0, r, 1000.0);
+        let expected = ((r + 1000.0_f64).powi(2) - r * r).sqrt();
+        assert!(relative_error(far, expected) < 1e-14);
+        // Camera exactly on the sphere: one root is exactly 0.
+        assert_eq!(intersect_altitude_sphere(1000.0, 0.3, r, 1000.0)[1], 0.0);
+        assert_eq!(intersect_altitude_sphere(1000.0, -0.3, r, 1000.0)[0], 0.0);
+        assert_eq!(
+            intersect_altitude_sphere(1000.0, 0.0, r, 1000.0),
+            [0.0, 0.0]
+        );
+        // Above the sphere looking up: both roots behind the camera.
+        assert!(intersect_altitude_sphere(5000.0, 0.5, r, 1000.0)[1] < 0.0);
+        // A horizontal ray from 5000 m passes over the sphere at 1000 m.
+        assert_eq!(
+            intersect_altitude_sphere(5000.0, 0.0, r, 1000.0),
+            [NO_HIT, NO_HIT]
+        );
+        // Tangent from above: mu = −√(1 − ((R + a)/(R + h))²), a double root at the tangent
+        // point; nudged up, a miss; nudged down, two close roots. No NaN anywhere.
+        let (h, a) = (5000.0, 1000.0);
+        let mu_tangent = -(1.0 - ((r + a) / (r + h)).powi(2)).sqrt();
+        let distance = ((r + h).powi(2) - (r + a).powi(2)).sqrt();
+        for mu in [mu_tangent, mu_tangent + 1e-12, mu_tangent - 1e-12] {
+            let roots = intersect_altitude_sphere(h, mu, r, a);
+            assert!(roots.iter().all(|t| t.is_finite()), "{roots:?}");
+            if roots != [NO_HIT, NO_HIT] {
+                assert!(
+                    relative_error(roots[0], distance) < 1e-3,
+                    "{roots:?} vs {distance}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn altitude_along_ray_matches_the_direct_formula() {
+        let r = EARTH_RADIUS_M;
+        for (h, mu, t) in [
+            (0.0, 1.0, 1234.5),
+            (1500.0, 0.0, 50_000.0),
+            (400_000.0, -0.8, 300_000.0),
+            (10.0, -0.001, 7000.0),
+        ] {
+            let a = r + h;
+            let direct = ((a + t * mu).powi(2) + t * t * (1.0 - mu * mu)).sqrt() - r;
+            let stable = altitude_along_ray(h, mu, t, r);
+            assert!(
+                (stable - direct).abs() < 1e-6,
+                "h {h} mu {mu} t {t}: {stable} vs {direct}"
+            );
+        }
+        assert_eq!(altitude_along_ray(1000.0, 1.0, 500.0, r), 1500.0);
+        assert_eq!(altitude_along_ray(1000.0, 0.3, 0.0, r), 1000.0);
+    }
+
+    #[test]
+    fn shells_and_intervals_cover_the_right_distances() {
+        let r = EARTH_RADIUS_M;
+        // From the ground straight up through [1000, 2000]: one piece.
+        let [first, second] = shell_segments(0.0, 1.0, r, 1000.0, 2000.0);
+        assert!(first[1] <= first[0]);
+        assert_eq!(second, [1000.0, 2000.0]);
+        // Inside the layer looking down: the part above the base.
+        let [first, _] = shell_segments(1500.0, -1.0, r, 1000.0, 2000.0);
+        assert_eq!(first, [0.0, 500.0]);
+        // Two disjoint layers and one overlapping the first: two merged intervals.
+        let mut low = slab(0.01);
+        low.top_m = 1500.0;
+        let mut overlap = slab(0.01);
+        overlap.base_m = 1400.0;
+        overlap.top_m = 2000.0;
+        let mut high = slab(0.01);
+        high.base_m = 8000.0;
+        high.top_m = 9000.0;
+        let layers = [high.clone(), low, overlap];
+        let first = next_cloud_interval(&layers, r, 0.0, 1.0, 0.0, f64::INFINITY);
+        assert_eq!(first, [1000.0, 2000.0]);
+        let second = next_cloud_interval(&layers, r, 0.0, 1.0, first[1], f64::INFINITY);
+        assert_eq!(second, [8000.0, 9000.0]);
+        let none = next_cloud_interval(&layers, r, 0.0, 1.0, second[1], f64::INFINITY);
+        assert!(none[1] <= none[0]);
+        // The scene ends the ray inside the first interval.
+        assert_eq!(
+            next_cloud_interval(&layers, r, 0.0, 1.0, 0.0, 1200.0),
+            [1000.0, 1200.0]
+        );
+        // Inactive layers are ignored.
+        let mut empty = high.clone();
+        empty.coverage = 0.0;
+        let none = next_cloud_interval(&[empty], r, 0.0, 1.0, 0.0, f64::INFINITY);
+        assert!(none[1] <= none[0]);
+        // The ground stops a downward ray from space before the far side of the planet.
+        assert!(ground_distance(400_000.0, -1.0, r) == 400_000.0);
+        assert!(ground_distance(0.0, -0.5, r) == 0.0);
+        assert!(ground_distance(0.0, 0.0, r).is_infinite());
+        assert!(ground_distance(0.0, 0.5, r).is_infinite());
+    }
+
+    #[test]
+    fn homogeneous_slab_matches_the_closed_form() {
+        // τ = 2 through the slab: the regime where a step's source term varies most.
+        let layer = slab(0.002);
+        for elevation in [90.0, 60.0, 30.0] {
+            for growth in [0.0, 0.001] {
+                for steps in [8, 32, 128, 512] {
+                    let settings = MarchSettings {
+                        step_growth: growth,
+                        ..slab_settings(steps, elevation)
+                    };
+                    let marched = march_up(&settings, std::slice::from_ref(&layer));
+                    let exact = homogeneous_slab(&settings, &layer);
+                    let t_error = relative_error(marched.transmittance, exact.transmittance);
+                    assert!(t_error < 1e-12, "T: {marched:?} vs {exact:?}");
+                    for c in 0..3 {
+                        let error = relative_error(marched.radiance[c], exact.radiance[c]);
+                        assert!(
+                            error < 0.005,
+                            "sun {elevation}°, growth {growth}, {steps} steps, channel {c}: \
+                             {} vs {} ({:.3} %)",
+                            marched.radiance[c],
+                            exact.radiance[c],
+                            error * 100.0
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn homogeneous_slab_with_octaves_matches_the_closed_form() {
+        let layer = slab(0.002);
+        let settings = MarchSettings {
+            octaves: 4,
+            ..slab_settings(128, 90.0)
+        };
+        let marched = march_up(&settings, std::slice::from_ref(&layer));
+        let exact = homogeneous_slab(&settings, &layer);
+        for c in 0..3 {
+            assert!(relative_error(marched.radiance[c], exact.radiance[c]) < 0.005);
+        }
+    }
+
+    #[test]
+    fn tiny_extinction_keeps_full_precision() {
+        // σ = 1e-9 /m over 1 km: τ = 1e-6. L is σ times a constant up to the physical
+        // self-attenuation of the light on its way in and out, a relative (1 + 1/μs) τ / 2 ≈
+        // 1.1e-6 here; at σ = 1e-12 that term is 1e-9. So 1000 L(1e-12) / L(1e-9) − 1 must be
+        // exactly that physical term (from the closed form) to 1e-9, and each L must match
+        // the closed form to 1e-9: no precision is lost (a clamped σ, or `1 − e^(−x)` in the
+        // integrator, would lose it all).
+        let settings = slab_settings(64, 60.0);
+        let one = march_up(&settings, &[slab(1e-9)]);
+        let tiny = march_up(&settings, &[slab(1e-12)]);
+        let exact_one = homogeneous_slab(&settings, &slab(1e-9));
+        let exact_tiny = homogeneous_slab(&settings, &slab(1e-12));
+        for c in 0..3 {
+            assert!(one.radiance[c] > 0.0);
+            assert!(relative_error(one.radiance[c], exact_one.radiance[c]) < 1e-9);
+            assert!(
+                relative_error(tiny.radiance[c], exact_tiny.radiance[c]) < 1e-9,
+                "{tiny:?} {exact_tiny:?}"
+            );
+            let nonlinearity = 1000.0 * tiny.radiance[c] / one.radiance[c] - 1.0;
+            let expected = 1000.0 * exact_tiny.radiance[c] / exact_one.radiance[c] - 1.0;
+            assert!(
+                nonlinearity > 0.0 && nonlinearity < 2e-6,
+                "L not proportional to σ: {nonlinearity}"
+            );
+            assert!(
+                (nonlinearity - expected).abs() < 1e-9,
+                "{nonlinearity} vs {expected}"
+            );
+        }
+        assert!(relative_error(1.0 - one.transmittance, 1e-6) < 1e-6);
+        assert!(relative_error(1.0 - tiny.transmittance, 1e-9) < 1e-6);
+    }
+
+    #[test]
+    fn huge_extinction_is_finite_and_opaque() {
+        for steps in [8, 64, 512] {
+            let settings = slab_settings(steps, 60.0);
+            let result = march_up(&settings, &[slab(1e4)]);
+            assert_sane(&result, "σ = 1e4");
+            assert_eq!(result.transmittance, 0.0);
+            assert!(result.radiance.iter().all(|&c| c > 0.0));
+            let exact = homogeneous_slab(&settings, &slab(1e4));
+            assert_eq!(exact.transmittance, 0.0);
+            assert!(exact.radiance.iter().all(|c| c.is_finite()));
+        }
+    }
+
+    #[test]
+    fn overlapping_layers_add_their_extinction() {
+        let settings = slab_settings(64, 60.0);
+        let both = march_up(&settings, &[slab(0.001), slab(0.0015)]);
+        let single = march_up(&settings, &[slab(0.0025)]);
+        assert!(relative_error(both.transmittance, single.transmittance) < 1e-12);
+        for c in 0..3 {
+            assert!(relative_error(both.radiance[c], single.radiance[c]) < 1e-12);
+        }
+    }
+
+    /// A cumulus-like noisy layer at 1500–3000 m.
+    fn cumulus(coverage: f64) -> MarchLayer {
+        MarchLayer {
+            coverage,
+            ..MarchLayer::default()
+        }
+    }
+
+    #[test]
+    fn coverage_zero_gives_exactly_clear_sky() {
+        let settings = MarchSettings::default();
+        for layers in [vec![cumulus(0.0)], vec![], vec![cumulus(0.0), slab(0.0)]] {
+            for direction in [UP, normalize([1.0, 0.1, 0.0]), normalize([0.0, -0.2, 1.0])] {
+                for altitude in [0.0, 2000.0, 400_000.0] {
+                    let result = march_clouds(
+                        textures(),
+                        &settings,
+                        &layers,
+                        altitude,
+                        UP,
+                        direction,
+                        f64::INFINITY,
+                        0.3,
+                    );
+                    assert_eq!(result, MarchResult::CLEAR);
+                }
+            }
+        }
+        assert_eq!(local_coverage(0.0, 1.0), 0.0);
+        assert_eq!(local_coverage(1.0, 0.0), 1.0);
+    }
+
+    #[test]
+    fn coverage_one_is_overcast() {
+        let settings = MarchSettings::default();
+        let layer = cumulus(1.0);
+        // Every point at the profile peak is cloud, wherever it is.
+        for x in [0.0, 1234.0, -5678.0, 40_000.0] {
+            for z in [0.0, 777.0, -9_000.0] {
+                let position = [x, 1500.0 + 0.1 * 1500.0, z];
+                assert!(
+                    density_at(
+                        textures(),
+                        &settings,
+                        std::slice::from_ref(&layer),
+                        position
+                    ) > 0.0
+                );
+            }
+        }
+        let result = march_up(&settings, &[layer]);
+        assert_sane(&result, "overcast");
+        assert!(result.transmittance < 0.01);
+    }
+
+    /// The hard cases of DESIGN.md ("Hard cases that must stay finite and correct").
+    #[test]
+    fn hard_cases_stay_finite() {
+        let r = EARTH_RADIUS_M;
+        let week_of_wind = 7.0 * 86_400.0 * 30.0;
+        let mut windy = cumulus(0.5);
+        windy.set_noise_origin([week_of_wind * 0.6 + 1.3e6, -week_of_wind * 0.8 - 4.2e5]);
+        for offset in [
+            windy.weather_offset_m,
+            windy.shape_offset_m,
+            windy.detail_offset_m,
+        ] {
+            assert!(
+                offset.iter().all(|o| (0.0..20_000.0).contains(o)),
+                "{offset:?}"
+            );
+        }
+        let mut thin_base = slab(0.01);
+        thin_base.base_m = 0.0;
+        thin_base.top_m = 300.0;
+        let layer_sets: Vec<Vec<MarchLayer>> = vec![
+            vec![cumulus(0.5)],
+            vec![cumulus(1.0)],
+            vec![cumulus(0.0), cumulus(0.3)],
+            vec![windy],
+            vec![slab(1e4)],
+            vec![thin_base, cumulus(0.7)],
+        ];
+        // Camera altitudes: ground, exactly on the base and the top, inside, in space.
+        let altitudes = [0.0, 1500.0, 3000.0, 2200.0, 400_000.0, 1e-9];
+        let elevations = [90.0, 30.0, 0.0, -0.5, -30.0, -90.0];
+        for layers in &layer_sets {
+            for &altitude in &altitudes {
+                // Directions: up, down, horizontal, tangent to the base and top spheres.
+                let mut mus = vec![1.0, -1.0, 0.0, 0.3, -0.05];
+                for shell in [1500.0, 3000.0, 0.0] {
+                    if altitude > shell {
+                        mus.push(-(1.0 - ((r + shell) / (r + altitude)).powi(2)).sqrt());
+                    }
+                }
+                for &mu in &mus {
+                    let direction = [(1.0 - mu * mu).max(0.0).sqrt(), mu, 0.0];
+                    for &elevation in &elevations {
+                        // Sun at the given elevation, and once straight along the view ray.
+                        let e: f64 = f64::to_radians(elevation);
+                        for sun in [[e.cos(), e.sin(), 0.0], direction] {
+                            let settings = MarchSettings {
+                                camera_altitude_m: altitude,
+                                sun_direction: sun,
+                                primary_steps: 16,
+                                light_steps: 3,
+                                ..MarchSettings::default()
+                            };
+                            for t_max in [f64::INFINITY, 1e-3, 0.0, 2500.0] {
+                                let result = march_clouds(
+                                    textures(),
+                                    &settings,
+                                    layers,
+                                    altitude,
+                                    UP,
+                                    direction,
+                                    t_max,
+                                    0.999,
+                                );
+                                let what = format!(
+                                    "alt {altitude} mu {mu} sun {elevation}° t_max {t_max}"
+                                );
+                                assert_sane(&result, &what);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn sun_below_the_horizon_leaves_only_ambient() {
+        let layer = slab(0.002);
+        let lit = march_up(&slab_settings(64, 30.0), std::slice::from_ref(&layer));
+        let night = MarchSettings {
+            sun_illuminance: [0.0; 3],
+            ..slab_settings(64, 30.0)
+        };
+        let ambient_only = march_up(&night, std::slice::from_ref(&layer));
+        // At 1-2 km the sun 10° below the horizon is behind the Earth: only the sky lights it.
+        let below = march_up(&slab_settings(64, -10.0), std::slice::from_ref(&layer));
+        for c in 0..3 {
+            assert!(relative_error(below.radiance[c], ambient_only.radiance[c]) < 1e-12);
+            assert!(lit.radiance[c] > below.radiance[c]);
+        }
+    }
+
+    #[test]
+    fn wrapped_wind_offsets_keep_the_same_clouds() {
+        let settings = MarchSettings::default();
+        let mut near = cumulus(0.5);
+        near.weather_scale_m = 20_000.0;
+        near.shape_scale_m = 8000.0;
+        near.detail_scale_m = 1000.0;
+        let mut far = near.clone();
+        let origin = [1234.5, -678.25];
+        near.set_noise_origin(origin);
+        // A week of 30 m/s wind later, plus whole common periods (40 km): the same noise.
+        let periods = (7.0 * 86_400.0 * 30.0 / 40_000.0_f64).round() * 40_000.0;
+        far.set_noise_origin([origin[0] + periods, origin[1] - periods]);
+        for (a, b) in [
+            (near.weather_offset_m, far.weather_offset_m),
+            (near.shape_offset_m, far.shape_offset_m),
+            (near.detail_offset_m, far.detail_offset_m),
+        ] {
+            assert!(
+                (a[0] - b[0]).abs() < 1e-6 && (a[1] - b[1]).abs() < 1e-6,
+                "{a:?} {b:?}"
+            );
+        }
+        for position in [[0.0, 2000.0, 0.0], [300.0, 2500.0, -1200.0]] {
+            let a = density_at(textures(), &settings, std::slice::from_ref(&near), position);
+            let b = density_at(textures(), &settings, std::slice::from_ref(&far), position);
+            assert!((a - b).abs() <= 1e-9 * a.abs().max(1e-12), "{a} vs {b}");
+        }
+        assert_eq!(
+            wrap_noise_offset([-1.0, 20_000.0], 20_000.0),
+            [19_999.0, 0.0]
+        );
+        assert_eq!(wrap_noise_offset([5.0, 5.0], 0.0), [0.0, 0.0]);
+    }
+
+    #[test]
+    fn cpu_queries_answer_in_cloud_and_sunlight() {
+        let layer = slab(0.002);
+        let layers = std::slice::from_ref(&layer);
+        let inside = MarchSettings {
+            camera_altitude_m: 1500.0,
+            sun_direction: UP,
+            ..MarchSettings::default()
+        };
+        assert!(is_in_cloud(textures(), &inside, layers, [0.0; 3]));
+        assert_eq!(density_at(textures(), &inside, layers, [0.0; 3]), 0.002);
+        // 500 m of cloud above the camera, sun at the zenith: e^(−1).
+        let t = transmittance_to_sun(textures(), &inside, layers, [0.0; 3]);
+        assert!(relative_error(t, (-1.0_f64).exp()) < 1e-12, "{t}");
+        let below = MarchSettings {
+            camera_altitude_m: 500.0,
+            ..inside.clone()
+        };
+        assert!(!is_in_cloud(textures(), &below, layers, [0.0; 3]));
+        assert!(is_in_cloud(textures(), &below, layers, [0.0, 600.0, 0.0]));
+        assert_eq!(
+            transmittance_to_sun(textures(), &below, layers, [0.0; 3]),
+            1.0
+        );
+        // Sun below the horizon at ground level: the planet's shadow.
+        let night = MarchSettings {
+            sun_direction: normalize([1.0, -0.1, 0.0]),
+            ..below
+        };
+        assert_eq!(
+            transmittance_to_sun(textures(), &night, layers, [0.0; 3]),
+            0.0
+        );
+    }
+
+    #[test]
+    fn textures_sample_like_a_repeating_trilinear_sampler() {
+        let base = &textures().base;
+        let n = base.size;
+        // At a texel centre level 0 returns the texel itself.
+        let texel = base.levels[0][(3 + n * (5 + n * 7)) as usize].map(unorm8);
+        let centre = [3.5, 5.5, 7.5].map(|c| c / f64::from(n));
+        assert_eq!(base.sample(centre, 0.0), texel);
+        // Repeat addressing, negative coordinates included.
+        for uvw in [[0.01, 0.5, 0.99], [0.3, 0.7, 0.2]] {
+            let a = base.sample(uvw, 0.7);
+            let b = base.sample([uvw[0] - 3.0, uvw[1] + 2.0, uvw[2] - 1.0], 0.7);
+            for c in 0..4 {
+                assert!((a[c] - b[c]).abs() < 1e-12);
+            }
+        }
+        // The last mip is one texel; lod beyond the chain clamps to it.
+        let last = base.levels.last().unwrap()[0].map(unorm8);
+        assert_eq!(base.sample([0.123, 0.456, 0.789], 99.0), last);
+        assert_eq!(base.levels.len(), 5);
+        // Mips are the box filter of the quantised level above, quantised.
+        let level1 = &base.levels[1];
+        let above: Vec<[f64; 4]> = base.levels[0].iter().map(|t| t.map(unorm8)).collect();
+        let expected: Vec<[u8; 4]> = downsample_3d(&above, n)
+            .iter()
+            .map(|t| t.map(quantize_unorm8))
+            .collect();
+        assert_eq!(level1, &expected);
+        // Halfway between two texel centres of the weather texture: their mean.
+        let weather = &textures().weather;
+        let m = f64::from(weather.size);
+        let a = weather.texels[4].map(unorm8);
+        let b = weather.texels[5].map(unorm8);
+        let mid = weather.sample([5.0 / m, 0.5 / m]);
+        for c in 0..4 {
+            assert!((mid[c] - 0.5 * (a[c] + b[c])).abs() < 1e-12);
+        }
+    }
+
+    /// Fraction of 200 vertical columns through a noisy layer of `coverage` that hold cloud.
+    fn cloudy_fraction(coverage: f64) -> f64 {
+        let settings = MarchSettings {
+            primary_steps: 24,
+            light_steps: 2,
+            ..MarchSettings::default()
+        };
+        let total = 200;
+        let mut cloudy = 0;
+        for i in 0..total {
+            let mut layer = cumulus(coverage);
+            layer.set_noise_origin([f64::from(i) * 997.0, f64::from(i % 13) * 1531.0]);
+            let result = march_clouds(
+                textures(),
+                &settings,
+                &[layer],
+                0.0,
+                UP,
+                UP,
+                f64::INFINITY,
+                0.5,
+            );
+            assert_sane(&result, "cumulus");
+            if result.transmittance < 0.99 {
+                cloudy += 1;
+            }
+        }
+        f64::from(cloudy) / f64::from(total)
+    }
+
+    #[test]
+    fn coverage_sets_the_cloudy_fraction() {
+        let fractions = [0.2, 0.5, 0.8].map(cloudy_fraction);
+        println!("cloudy fraction at coverage 0.2, 0.5, 0.8: {fractions:?}");
+        assert!(fractions[0] < fractions[1] && fractions[1] < fractions[2]);
+        assert!((0.05..0.4).contains(&fractions[0]), "{fractions:?}");
+        assert!((0.3..0.7).contains(&fractions[1]), "{fractions:?}");
+        assert!((0.6..0.95).contains(&fractions[2]), "{fractions:?}");
+    }
+
+    #[test]
+    fn phase_and_jitter_stay_in_range() {
+        for g in [-1.0, -0.3, 0.0, 0.8, 1.0] {
+            for cos in [-1.0, 0.0, 1.0] {
+                let p = henyey_greenstein(cos, g);
+                assert!(p.is_finite() && p > 0.0, "HG({cos}, {g}) = {p}");
+            }
+        }
+        // An isotropic lobe is 1 / 4π.
+        assert!((henyey_greenstein(0.3, 0.0) - 1.0 / (4.0 * std::f64::consts::PI)).abs() < 1e-15);
+        for x in 0..64 {
+            for frame in [0, 1, 63, 1000] {
+                let j =
+                    interleaved_gradient_noise([f64::from(x) * 37.0, f64::from(x) * 11.0], frame);
+                assert!((0.0..1.0).contains(&j));
+            }
+        }
+        let off = MarchSettings {
+            jitter: false,
+            ..MarchSettings::default()
+        };
+        assert_eq!(ray_start_jitter(&off, [3.0, 4.0]), 0.5);
+        assert_eq!(step_warp(0.37, 0.0), 0.37);
+        assert!((step_warp(1.0, 5.0) - 1.0).abs() < 1e-15);
+        assert!((step_warp(0.5, 3.0) - 1.0 / 3.0).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,286 @@
+//! The Bevy side of the weather stage: forecasts as hot-reloading assets, the [`WeatherSource`]
+//! that names them, and the [`CurrentWeather`] sampled from them every frame.
+//!
+//! Forecast files load through the asset server with [`ForecastLoader`] (extension `.json`), so a
+//! scheduled job that replaces `assets/weather/bern.json` with a fresh download changes the sky a
+//! moment later when Bevy's `file_watcher` feature is on. A file that fails to load or reload is
+//! reported with `warn!` naming the file, key and index, and the last good forecast stays in use.
+
+use bevy::{
+    asset::{AssetLoadFailedEvent, AssetLoader, AssetPath, LoadContext, io::Reader},
+    prelude::*,
+};
+
+use super::{Forecast, ForecastError, Place, SampleWarning, Sampler, WeatherState};
+use crate::sky::{SceneClock, solar::Observer};
+
+/// Reads meteoblue and Open-Meteo JSON files into [`Forecast`] assets (format detected).
+#[derive(Debug, Default, Clone, Copy, TypePath)]
+pub struct ForecastLoader;
+
+impl AssetLoader for ForecastLoader {
+    type Asset = Forecast;
+    type Settings = ();
+    type Error = ForecastError;
+
+    async fn load(
+        &self,
+        reader: &mut dyn Reader,
+        _settings: &(),
+        load_context: &mut LoadContext<'_>,
+    ) -> Result<Forecast, ForecastError> {
+        let path = load_context.path().path().to_path_buf();
+        let mut bytes = Vec::new();
+        reader
+            .read_to_end(&mut bytes)
+            .await
+            .map_err(|e| ForecastError::Io {
+                file: Some(path.clone()),
+                message: e.to_string(),
+            })?;
+        let mut forecast = Forecast::from_slice(&bytes, None).map_err(|e| e.with_file(&path))?;
+        if forecast.place.name.is_empty()
+            && let Some(stem) = path.file_stem()
+        {
+            forecast.place.name = stem.to_string_lossy().into_owned();
+        }
+        Ok(forecast)
+    }
+
+    fn extensions(&self) -> &[&str] {
+        &["json"]
+    }
+}
+
+/// A geographic point that becomes the scene origin: scene metres are measured on the local
+/// tangent plane there, +X east, +Y up, −Z north.
+#[derive(Debug, Clone, Copy, PartialEq, Reflect)]
+pub struct GeoOrigin {
+    /// Latitude, degrees north. Default 46.948 (Bern).
+    pub latitude_deg: f64,
+    /// Longitude, degrees east. Default 7.447 (Bern).
+    pub longitude_deg: f64,
+    /// Height of the scene's y = 0 above sea level, metres. Default 0: scene y is altitude.
+    pub elevation_m: f64,
+}
+
+impl Default for GeoOrigin {
+    fn default() -> Self {
+        Self {
+            latitude_deg: 46.948,
+            longitude_deg: 7.447,
+            elevation_m: 0.0,
+        }
+    }
+}
+
+/// WGS 84 semi-major axis, metres.
+const WGS84_A_M: f64 = 6_378_137.0;
+/// WGS 84 first eccentricity squared.
+const WGS84_E2: f64 = 6.694_379_990_14e-3;
+
+impl GeoOrigin {
+    /// Scene position (metres; +X east, −Z north, +Y up) of a geographic point.
+    ///
+    /// Uses the local tangent plane with the WGS 84 radii of curvature at the origin (meridional
+    /// `M` for north, prime vertical `N cos φ` for east). At 50 km from the origin the distance
+    /// error from neglecting the curvature of the meridians is under 0.1 % — well inside a weather
+    /// cell — which is why a full ECEF→ENU transform is not needed at this scale.
+    pub fn to_scene(&self, latitude_deg: f64, longitude_deg: f64, elevation_m: f64) -> Vec3 {
+        let phi = self.latitude_deg.to_radians();
+        let w = 1.0 - WGS84_E2 * phi.sin().powi(2);
+        let prime_vertical = WGS84_A_M / w.sqrt();
+        let meridional = WGS84_A_M * (1.0 - WGS84_E2) / w.powf(1.5);
+        let east = prime_vertical * phi.cos() * (longitude_deg - self.longitude_deg).to_radians();
+        let north = meridional * (latitude_deg - self.latitude_deg).to_radians();
+        Vec3::new(
+            east as f32,
+            (elevation_m - self.elevation_m) as f32,
+            -north as f32,
+        )
+    }
+
+    /// The origin as an observer for the solar position.
+    pub fn observer(&self) -> Observer {
+        Observer {
+            latitude_deg: self.latitude_deg,
+            longitude_deg: self.longitude_deg,
+            elevation_m: self.elevation_m,
+        }
+    }
+}
+
+/// A forecast for a place other than the scene origin (seed 000 §4.4–4.5: Solothurn or
+/// Fribourg on the horizon while Bern fills the foreground).
+#[derive(Debug, Clone, Reflect)]
+pub struct FarForecast {
+    /// The forecast file.
+    pub forecast: Handle<Forecast>,
+}
+
+/// Which forecasts drive the scene.
+///
+/// The near forecast fills the foreground; each far forecast shows toward its own place, blended
+/// in space by the weather map (its position comes from the file's latitude and longitude through
+/// [`GeoOrigin::to_scene`]). Without a near forecast the weather stage does nothing and layers
+/// keep their hand-set values.
+#[derive(Resource, Debug, Clone, Default, Reflect)]
+#[reflect(Resource)]
+pub struct WeatherSource {
+    /// The forecast for the scene's own place.
+    pub near: Option<Handle<Forecast>>,
+    /// Forecasts for distant places.
+    pub far: Vec<FarForecast>,
+    /// The geographic point at the scene origin; also the observer for the sun.
+    pub origin: GeoOrigin,
+}
+
+impl WeatherSource {
+    /// A source that loads `near` and each of `far` through the asset server.
+    pub fn load<'a>(
+        asset_server: &AssetServer,
+        origin: GeoOrigin,
+        near: impl Into<AssetPath<'a>>,
+        far: impl IntoIterator<Item = AssetPath<'a>>,
+    ) -> Self {
+        Self {
+            near: Some(asset_server.load(near.into())),
+            far: far
+                .into_iter()
+                .map(|path| FarForecast {
+                    forecast: asset_server.load(path),
+                })
+                .collect(),
+            origin,
+        }
+    }
+}
+
+/// The weather at one place, sampled at the scene time.
+#[derive(Debug, Clone)]
+pub struct PlaceWeather {
+    /// Where the forecast is for.
+    pub place: Place,
+    /// The place in scene metres (see [`GeoOrigin::to_scene`]).
+    pub scene_position: Vec3,
+    /// The interpolated state.
+    pub state: WeatherState,
+}
+
+/// The forecasts of [`WeatherSource`] sampled at the [`SceneClock`] time; updated every frame in
+/// [`crate::CloudscapeSystems::Weather`].
+///
+/// A forecast that has not loaded yet, or failed to load, keeps its last good state (or `None`
+/// before the first).
+#[derive(Resource, Debug, Clone, Default)]
+pub struct CurrentWeather {
+    /// The near place.
+    pub near: Option<PlaceWeather>,
+    /// The far places, in the order of [`WeatherSource::far`] (`None` until loaded).
+    pub far: Vec<Option<PlaceWeather>>,
+}
+
+/// One sampler per forecast, so each warns once per excursion rather than once per frame.
+#[derive(Default)]
+pub(crate) struct Samplers {
+    near: Sampler,
+    far: Vec<Sampler>,
+}
+
+fn sample_place(
+    forecasts: &Assets<Forecast>,
+    handle: &Handle<Forecast>,
+    sampler: &mut Sampler,
+    origin: &GeoOrigin,
+    unix_seconds: f64,
+) -> Option<PlaceWeather> {
+    let forecast = forecasts.get(handle)?;
+    let state = sampler.sample_unix_seconds(forecast, unix_seconds);
+    while let Some(warning) = sampler.take_warning() {
+        report(&forecast.place.name, &warning);
+    }
+    let place = &forecast.place;
+    Some(PlaceWeather {
+        scene_position: origin.to_scene(place.latitude_deg, place.longitude_deg, place.elevation_m),
+        place: place.clone(),
+        state,
+    })
+}
+
+fn report(place: &str, warning: &SampleWarning) {
+    warn!("bevy_cloudscape: forecast for {place}: {warning}");
+}
+
+/// Samples every forecast of the [`WeatherSource`] at the scene time.
+pub(crate) fn sample_weather(
+    source: Option<Res<WeatherSource>>,
+    clock: Res<SceneClock>,
+    forecasts: Res<Assets<Forecast>>,
+    mut current: ResMut<CurrentWeather>,
+    mut samplers: Local<Samplers>,
+) {
+    let Some(source) = source else {
+        return;
+    };
+    let t = clock.unix_seconds();
+    if let Some(near) = &source.near
+        && let Some(sampled) = sample_place(&forecasts, near, &mut samplers.near, &source.origin, t)
+    {
+        current.near = Some(sampled);
+    }
+    samplers.far.resize_with(source.far.len(), Sampler::new);
+    current.far.resize(source.far.len(), None);
+    for ((far, sampler), slot) in source
+        .far
+        .iter()
+        .zip(&mut samplers.far)
+        .zip(&mut current.far)
+    {
+        if let Some(sampled) = sample_place(&forecasts, &far.forecast, sampler, &source.origin, t) {
+            *slot = Some(sampled);
+        }
+    }
+}
+
+/// Logs forecast files that failed to load, naming file, key and index; the last good forecast
+/// stays in `Assets<Forecast>`.
+pub(crate) fn report_failed_forecasts(mut failures: MessageReader<AssetLoadFailedEvent<Forecast>>) {
+    for failure in failures.read() {
+        warn!(
+            "bevy_cloudscape: cannot use forecast {}: {} (keeping the last good data)",
+            failure.path, failure.error
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tangent_plane_distances_match_known_baselines() {
+        let bern = GeoOrigin::default();
+        // WGS 84 geodesics (Karney's algorithm, GeographicLib 2.0): Bern → Solothurn
+        // 29 701.955 m at azimuth 13.2713°, Bern → Fribourg 26 855.124 m at −125.8982°.
+        for (lat, lon, distance_m, azimuth_deg) in [
+            (47.208, 7.537, 29_701.955, 13.271_31),
+            (46.806, 7.162, 26_855.124, -125.898_18),
+        ] {
+            let p = bern.to_scene(lat, lon, 610.0);
+            let d = f64::from(p.xz().length());
+            // Azimuth clockwise from north: east is +X, north is -Z.
+            let azimuth = f64::from(p.x).atan2(f64::from(-p.z)).to_degrees();
+            assert!(
+                (d - distance_m).abs() / distance_m < 1e-3,
+                "{d} m vs {distance_m} m"
+            );
+            // The plane ignores the convergence of meridians, which turns bearings by about
+            // Δλ·sin φ / 2 (0.10° for Fribourg, 0.03° for Solothurn): allow twice that.
+            assert!(
+                (azimuth - azimuth_deg).abs() < 0.2,
+                "{azimuth}° vs {azimuth_deg}°"
+            );
+            assert_eq!(p.y, 610.0);
+        }
+    }
+}

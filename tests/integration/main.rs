@@ -1,0 +1,10 @@
+//! Integration tests: whole apps, GPU passes read back on whatever Vulkan driver the machine has
+//! (lavapipe on CI), asset hot reload. One test binary with modules, because every binary links
+//! Bevy.
+
+#[path = "../../examples/common/mod.rs"]
+mod common;
+mod harness;
+mod noise;
+mod sky;
+mod weather;

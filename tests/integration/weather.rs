@@ -1,0 +1,99 @@
+//! Forecast files as hot-reloading assets, sampled into `CurrentWeather` in a running app.
+
+use std::{
+    path::{Path, PathBuf},
+    time::{Duration, Instant},
+};
+
+use bevy::{asset::AssetPlugin, prelude::*};
+use bevy_cloudscape::prelude::*;
+
+/// A folder of its own under `target/`, so parallel runs don't share files.
+fn scratch_assets(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("target/test-assets")
+        .join(format!("{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The bundled Bern forecast with every `lowclouds` value replaced by `percent`.
+fn bern_with_low_clouds(percent: f64) -> String {
+    let text = include_str!("../../assets/weather/bern.json");
+    let mut json: serde_json::Value = serde_json::from_str(text).unwrap();
+    let low = json["data_1h"]["lowclouds"].as_array_mut().unwrap();
+    for value in low.iter_mut() {
+        *value = serde_json::json!(percent);
+    }
+    json.to_string()
+}
+
+fn low_cover(app: &App) -> Option<f32> {
+    app.world()
+        .resource::<CurrentWeather>()
+        .near
+        .as_ref()
+        .and_then(|near| near.state.low_cover())
+}
+
+/// Updates the app until `done` or `limit` passes; returns the time it took.
+fn update_until(app: &mut App, limit: Duration, mut done: impl FnMut(&App) -> bool) -> Duration {
+    let start = Instant::now();
+    while !done(app) {
+        assert!(start.elapsed() < limit, "not reached within {limit:?}");
+        app.update();
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    start.elapsed()
+}
+
+#[test]
+fn replacing_a_forecast_file_updates_the_weather_and_bad_files_keep_the_last_good() {
+    let dir = scratch_assets("hot-reload");
+    let file = dir.join("bern.json");
+    std::fs::write(&file, bern_with_low_clouds(20.0)).unwrap();
+
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        AssetPlugin {
+            file_path: dir.to_string_lossy().into_owned(),
+            watch_for_changes_override: Some(true),
+            ..default()
+        },
+        CloudscapePlugin.build().disable::<CloudNoisePlugin>(),
+    ))
+    .insert_resource(SceneClock::at("2021-05-04T10:00:00Z".parse().unwrap()));
+    app.finish();
+    app.cleanup();
+    let source = WeatherSource::load(
+        app.world().resource::<AssetServer>(),
+        GeoOrigin::default(),
+        "bern.json",
+        [],
+    );
+    app.insert_resource(source);
+
+    update_until(&mut app, Duration::from_secs(20), |app| {
+        low_cover(app).is_some()
+    });
+    assert_eq!(low_cover(&app), Some(0.2));
+
+    // The file watcher needs a moment to start watching before a change is seen.
+    std::thread::sleep(Duration::from_millis(500));
+    std::fs::write(&file, bern_with_low_clouds(70.0)).unwrap();
+    let took = update_until(&mut app, Duration::from_secs(10), |app| {
+        low_cover(app) == Some(0.7)
+    });
+    assert!(took < Duration::from_secs(2), "hot reload took {took:?}");
+
+    // A broken file is reported and the last good forecast stays in use.
+    std::fs::write(&file, "{ \"metadata\": ").unwrap();
+    let start = Instant::now();
+    while start.elapsed() < Duration::from_millis(1500) {
+        app.update();
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert_eq!(low_cover(&app), Some(0.7), "last good data kept");
+    let _ = std::fs::remove_dir_all(&dir);
+}
