@@ -8,7 +8,8 @@
 //! | stage | module | what it does |
 //! |---|---|---|
 //! | weather | [`weather`] | meteoblue / Open-Meteo files to a [`weather::Forecast`], sampled into a [`weather::WeatherState`] |
-//! | sky | [`sky`] | where the sun is for a place and a UTC instant (NREL SPA) |
+//! | sky | [`sky`] | the scene clock, and where the sun is for a place and a UTC instant (NREL SPA) |
+//! | layers | [`layers`] | [`layers::CloudLayer`]: altitude, coverage, density, kind and profile, wind |
 //! | CPU reference | [`reference`] | f64 twin of the GPU noise: the truth the GPU is tested against |
 //! | noise | [`render::noise`] | compute pass filling tileable 3D cloud-noise textures once |
 //!
@@ -28,10 +29,12 @@ pub mod weather;
 
 /// Everything a game needs to add clouds, in one import.
 pub mod prelude {
+    pub use crate::layers::{CloudKind, CloudLayer, DensityProfile};
     pub use crate::render::noise::{CloudNoisePlugin, CloudNoiseSettings};
     pub use crate::sky::{ClockMode, SceneClock, SkyPlugin, Sun};
     pub use crate::weather::{
-        CurrentWeather, Forecast, GeoOrigin, UtcInstant, WeatherPlugin, WeatherSource,
+        CurrentWeather, Forecast, GeoOrigin, LayerSlot, UtcInstant, WeatherPlugin, WeatherSource,
+        spawn_weather_layers,
     };
     pub use crate::{CloudscapePlugin, CloudscapeSystems};
 }
@@ -63,6 +66,8 @@ pub enum CloudscapeSystems {
     Clock,
     /// Samples the [`weather::WeatherSource`] forecasts into [`weather::CurrentWeather`].
     Weather,
+    /// Maps the weather onto weather-driven [`layers::CloudLayer`]s.
+    Layers,
     /// Aims the [`sky::Sun`] lights.
     Sun,
 }
@@ -77,6 +82,7 @@ impl Plugin for SchedulePlugin {
             (
                 CloudscapeSystems::Clock,
                 CloudscapeSystems::Weather,
+                CloudscapeSystems::Layers,
                 CloudscapeSystems::Sun,
             )
                 .chain(),

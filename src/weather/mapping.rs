@@ -64,6 +64,8 @@
 use std::fmt;
 use std::ops::{Index, IndexMut};
 
+use bevy::prelude::*;
+
 use crate::layers::{CloudKind, CloudLayer};
 use crate::weather::{ForecastFormat, STANDARD_LEVELS_HPA, Variable, VariableSet, WeatherState};
 
@@ -79,7 +81,11 @@ pub const STANDARD_LEVEL_HEIGHTS_M: [f32; STANDARD_LEVELS_HPA.len()] =
 pub const KOSCHMIEDER_CONSTANT: f32 = 3.912;
 
 /// The named layers the mapping fills (seed 000 §4.2: "Layers of Cloud Shaders").
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+///
+/// As a component beside a [`CloudLayer`], it tells the crate's mapping system which slot the
+/// entity is; see [`spawn_weather_layers`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Component, Reflect)]
+#[reflect(Component)]
 pub enum LayerSlot {
     /// Ground fog: a stratus layer from the ground up to [`WeatherMapping::fog_top_m`], driven
     /// by fog probability, visibility and fog weather codes.
@@ -222,7 +228,10 @@ impl CloudBands {
 
 /// Tunable rules of the weather → layers mapping. The [module docs](self) give the table; every
 /// threshold there is a field here. `Default` is [`WeatherMapping::METEOBLUE`].
-#[derive(Clone, Copy, Debug, PartialEq)]
+///
+/// As a resource it configures the crate's mapping system; without one the system uses
+/// [`WeatherMapping::for_format`] of the near forecast.
+#[derive(Clone, Copy, Debug, PartialEq, Resource)]
 pub struct WeatherMapping {
     /// Altitude bands of the low, mid and high slots. Default [`CloudBands::METEOBLUE`].
     pub bands: CloudBands,
@@ -1198,6 +1207,72 @@ pub fn layers_for_weather(
     let warnings = map_weather(state, ground_elevation_m, &mut layers);
     let visible = layers.visible().map(|(_, layer)| layer.clone()).collect();
     (visible, warnings)
+}
+
+/// Spawns one [`CloudLayer`] entity per [`LayerSlot`], each starting at coverage 0, for the
+/// weather to fill. Returns the entities in [`LayerSlot::ALL`] order.
+pub fn spawn_weather_layers(commands: &mut Commands) -> Vec<Entity> {
+    LayerSlot::ALL
+        .iter()
+        .map(|&slot| {
+            commands
+                .spawn((
+                    Name::new(format!("cloud layer: {slot}")),
+                    slot,
+                    slot.initial_layer(),
+                ))
+                .id()
+        })
+        .collect()
+}
+
+/// Writes the near place's [`CurrentWeather`](super::CurrentWeather) onto every weather-driven
+/// [`CloudLayer`] with a [`LayerSlot`], when the weather changed. Layers are only written when
+/// their values change, so change detection stays meaningful; mapping warnings are logged when
+/// they change, not every frame.
+pub(crate) fn map_weather_onto_layers(
+    current: Res<super::CurrentWeather>,
+    mapping: Option<Res<WeatherMapping>>,
+    forecasts: Res<Assets<super::Forecast>>,
+    source: Option<Res<super::WeatherSource>>,
+    mut layers: Query<(&LayerSlot, &mut CloudLayer)>,
+    mut last_warnings: Local<Vec<String>>,
+) {
+    if !current.is_changed() && !mapping.as_ref().is_some_and(|m| m.is_changed()) {
+        return;
+    }
+    let Some(near) = &current.near else {
+        return;
+    };
+    let rules = mapping.map_or_else(
+        || {
+            let format = source
+                .as_ref()
+                .and_then(|s| s.near.as_ref())
+                .and_then(|h| forecasts.get(h))
+                .and_then(|f| f.format);
+            WeatherMapping::for_format(format)
+        },
+        |m| *m,
+    );
+    let mapped = rules.map(&near.state, near.place.elevation_m as f32);
+    for (slot, mut layer) in &mut layers {
+        let mut updated = layer.clone();
+        mapped.apply(*slot, &mut updated);
+        if updated != *layer {
+            *layer = updated;
+        }
+    }
+    let warnings: Vec<String> = mapped.warnings.iter().map(ToString::to_string).collect();
+    if warnings != *last_warnings {
+        for warning in &warnings {
+            warn!(
+                "bevy_cloudscape: weather for {}: {warning}",
+                near.place.name
+            );
+        }
+        *last_warnings = warnings;
+    }
 }
 
 #[cfg(test)]

@@ -60,6 +60,7 @@ pub use forecast::{Forecast, ForecastFormat, Place, PressureLevel, Series, Varia
 pub use mapping::{
     CloudBand, CloudBands, InputFault, LayerSlot, MAPPING_TABLE, MappedWeather, MappingRow,
     MappingWarning, WeatherLayers, WeatherMapping, layers_for_weather, map_weather,
+    spawn_weather_layers,
 };
 pub use sample::{
     DEFAULT_MAX_BRIDGE_S, DataEdge, LevelState, STANDARD_LEVELS_HPA, SampleWarning, Sampler,
@@ -70,8 +71,9 @@ pub use source::{
 };
 pub use time::{CivilDateTime, TimeParseError, UtcInstant};
 
-/// Forecast assets, their loader, and the per-frame sampling of the [`WeatherSource`] into
-/// [`CurrentWeather`]; part of [`crate::CloudscapePlugin`].
+/// Forecast assets, their loader, the per-frame sampling of the [`WeatherSource`] into
+/// [`CurrentWeather`], and the mapping of that weather onto [`LayerSlot`] layers; part of
+/// [`crate::CloudscapePlugin`].
 #[derive(Debug, Default, Clone, Copy)]
 pub struct WeatherPlugin;
 
@@ -81,11 +83,16 @@ impl Plugin for WeatherPlugin {
             .register_asset_loader(ForecastLoader)
             .init_resource::<CurrentWeather>()
             .register_type::<WeatherSource>()
+            .register_type::<LayerSlot>()
+            .register_type::<crate::layers::CloudLayer>()
             .add_systems(
                 Update,
-                (source::report_failed_forecasts, source::sample_weather)
-                    .chain()
-                    .in_set(CloudscapeSystems::Weather),
+                (
+                    (source::report_failed_forecasts, source::sample_weather)
+                        .chain()
+                        .in_set(CloudscapeSystems::Weather),
+                    mapping::map_weather_onto_layers.in_set(CloudscapeSystems::Layers),
+                ),
             );
     }
 }

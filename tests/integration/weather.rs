@@ -28,6 +28,16 @@ fn bern_with_low_clouds(percent: f64) -> String {
     json.to_string()
 }
 
+/// Coverage of the weather-driven low layer entity.
+fn low_layer_coverage(app: &mut App) -> f32 {
+    let mut layers = app.world_mut().query::<(&LayerSlot, &CloudLayer)>();
+    layers
+        .iter(app.world())
+        .find(|(slot, _)| **slot == LayerSlot::Low)
+        .map(|(_, layer)| layer.coverage)
+        .expect("low layer spawned")
+}
+
 fn low_cover(app: &App) -> Option<f32> {
     app.world()
         .resource::<CurrentWeather>()
@@ -73,11 +83,20 @@ fn replacing_a_forecast_file_updates_the_weather_and_bad_files_keep_the_last_goo
         [],
     );
     app.insert_resource(source);
+    for slot in LayerSlot::ALL {
+        app.world_mut().spawn((slot, slot.initial_layer()));
+    }
 
     update_until(&mut app, Duration::from_secs(20), |app| {
         low_cover(app).is_some()
     });
     assert_eq!(low_cover(&app), Some(0.2));
+    app.update();
+    assert_eq!(
+        low_layer_coverage(&mut app),
+        0.2,
+        "the mapping drives the low layer"
+    );
 
     // The file watcher needs a moment to start watching before a change is seen.
     std::thread::sleep(Duration::from_millis(500));
@@ -86,6 +105,8 @@ fn replacing_a_forecast_file_updates_the_weather_and_bad_files_keep_the_last_goo
         low_cover(app) == Some(0.7)
     });
     assert!(took < Duration::from_secs(2), "hot reload took {took:?}");
+    app.update();
+    assert_eq!(low_layer_coverage(&mut app), 0.7);
 
     // A broken file is reported and the last good forecast stays in use.
     std::fs::write(&file, "{ \"metadata\": ").unwrap();
@@ -95,5 +116,6 @@ fn replacing_a_forecast_file_updates_the_weather_and_bad_files_keep_the_last_goo
         std::thread::sleep(Duration::from_millis(20));
     }
     assert_eq!(low_cover(&app), Some(0.7), "last good data kept");
+    assert_eq!(low_layer_coverage(&mut app), 0.7);
     let _ = std::fs::remove_dir_all(&dir);
 }

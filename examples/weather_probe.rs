@@ -1,0 +1,166 @@
+//! Prints what the crate makes of forecast files at one instant, as one JSON object: the
+//! interpolated weather, the sun, and the cloud layers the mapping derives.
+//!
+//! ```text
+//! cargo run --release --example weather_probe -- FILE [FAR_FILE...] --at RFC3339_INSTANT
+//! ```
+//!
+//! Keys: `time` (RFC 3339, UTC), `place`, `low_cover`, `mid_cover`, `high_cover`, `total_cover`
+//! (fractions 0–1), `precipitation_mm_per_h`, `wind_speed_m_s`, `wind_direction_deg`,
+//! `sun_elevation_deg`, `sun_azimuth_deg` (clockwise from north), `layers` (an array of
+//! `{kind, base_m, top_m, coverage, density}`, heights above ground, density in 1/m), `far` (the
+//! same weather values for each far file, with its place), and `warnings`. A value the forecast
+//! does not have is `null`, never 0.
+//!
+//! A file that cannot be read exits with status 2 and one line on stderr naming the file, the
+//! key and the index.
+
+use std::process::ExitCode;
+
+use bevy_cloudscape::{
+    sky::{Observer, SolarOptions, solar_position},
+    weather::{Forecast, Sampler, UtcInstant, WeatherState, layers_for_weather},
+};
+use serde_json::{Value, json};
+
+struct Args {
+    near: String,
+    far: Vec<String>,
+    at: UtcInstant,
+}
+
+fn parse_args() -> Result<Args, String> {
+    let usage = "usage: weather_probe FILE [FAR_FILE...] --at RFC3339_INSTANT";
+    let mut files = Vec::new();
+    let mut at = None;
+    let mut it = std::env::args().skip(1);
+    while let Some(arg) = it.next() {
+        if arg == "--at" {
+            let text = it
+                .next()
+                .ok_or(format!("--at needs an instant ({usage})"))?;
+            at = Some(
+                text.parse::<UtcInstant>()
+                    .map_err(|e| format!("--at {text:?}: {e}"))?,
+            );
+        } else if arg.starts_with("--") {
+            return Err(format!("unknown option {arg:?} ({usage})"));
+        } else {
+            files.push(arg);
+        }
+    }
+    let mut files = files.into_iter();
+    Ok(Args {
+        near: files.next().ok_or(usage)?,
+        far: files.collect(),
+        at: at.ok_or(format!("--at is required ({usage})"))?,
+    })
+}
+
+/// `null` for a value the forecast does not have. An f32 is written with its shortest decimal
+/// form (0.44, not 0.4399999976158142).
+fn number(value: Option<f32>) -> Value {
+    value
+        .filter(|v| v.is_finite())
+        .and_then(|v| v.to_string().parse::<f64>().ok())
+        .map_or(Value::Null, |v| json!(v))
+}
+
+fn weather_json(state: &WeatherState) -> serde_json::Map<String, Value> {
+    let mut object = serde_json::Map::new();
+    for (key, value) in [
+        ("low_cover", state.low_cover()),
+        ("mid_cover", state.mid_cover()),
+        ("high_cover", state.high_cover()),
+        ("total_cover", state.total_cover()),
+        ("precipitation_mm_per_h", state.precipitation_mm_per_h()),
+        ("wind_speed_m_s", state.wind_speed_m_s()),
+        ("wind_direction_deg", state.wind_direction_deg()),
+    ] {
+        object.insert(key.into(), number(value));
+    }
+    object
+}
+
+fn sample(forecast: &Forecast, at: UtcInstant, warnings: &mut Vec<String>) -> WeatherState {
+    let mut sampler = Sampler::new();
+    let state = sampler.sample(forecast, at);
+    while let Some(warning) = sampler.take_warning() {
+        warnings.push(format!("{}: {warning}", forecast.place.name));
+    }
+    warnings.extend(
+        forecast
+            .warnings
+            .iter()
+            .map(|w| format!("{}: {w}", forecast.place.name)),
+    );
+    state
+}
+
+fn run(args: &Args) -> Result<Value, String> {
+    let load = |path: &str| Forecast::from_path(path, None).map_err(|e| e.to_string());
+    let near = load(&args.near)?;
+    let far = args
+        .far
+        .iter()
+        .map(|path| load(path))
+        .collect::<Result<Vec<_>, _>>()?;
+
+    let mut warnings = Vec::new();
+    let state = sample(&near, args.at, &mut warnings);
+    let sun = solar_position(
+        &Observer::from(&near.place),
+        args.at,
+        &SolarOptions::default(),
+    );
+    let (layers, mapping_warnings) = layers_for_weather(&state, near.place.elevation_m as f32);
+    warnings.extend(mapping_warnings.iter().map(ToString::to_string));
+
+    let mut object = serde_json::Map::new();
+    object.insert("time".into(), json!(args.at.to_rfc3339()));
+    object.insert("place".into(), json!(near.place.name));
+    object.extend(weather_json(&state));
+    object.insert("sun_elevation_deg".into(), json!(sun.elevation_deg));
+    object.insert("sun_azimuth_deg".into(), json!(sun.azimuth_deg));
+    object.insert(
+        "layers".into(),
+        layers
+            .iter()
+            .map(|layer| {
+                json!({
+                    "kind": layer.kind.name(),
+                    "base_m": number(Some(layer.base_m)),
+                    "top_m": number(Some(layer.top_m)),
+                    "coverage": number(Some(layer.coverage)),
+                    "density": number(Some(layer.density)),
+                })
+            })
+            .collect(),
+    );
+    object.insert(
+        "far".into(),
+        far.iter()
+            .map(|forecast| {
+                let state = sample(forecast, args.at, &mut warnings);
+                let mut entry = weather_json(&state);
+                entry.insert("place".into(), json!(forecast.place.name));
+                Value::Object(entry)
+            })
+            .collect(),
+    );
+    object.insert("warnings".into(), json!(warnings));
+    Ok(Value::Object(object))
+}
+
+fn main() -> ExitCode {
+    match parse_args().and_then(|args| run(&args)) {
+        Ok(value) => {
+            println!("{value}");
+            ExitCode::SUCCESS
+        }
+        Err(message) => {
+            eprintln!("weather_probe: {message}");
+            ExitCode::from(2)
+        }
+    }
+}
