@@ -566,6 +566,9 @@ pub struct CloudLayer {
     /// (dimensionless; 0.5 moves the top of a 1 km layer 500 m downwind of its base). Default:
     /// the kind's.
     pub skew: f32,
+    /// How much the 3D shape and detail noise carve the layer, 0–1: 0 is a homogeneous slab
+    /// (density = profile × coverage), 1 the full billowy shapes. Default 1.
+    pub shape_noise: f32,
     /// Darkening of the cloud by precipitation, 0 (none) to 1 (darkest). Default 0.
     pub precipitation: f32,
     /// Rain (or snow, as water) falling from the layer's base, mm/h (≥ 0). Default 0.
@@ -597,6 +600,7 @@ impl CloudLayer {
             weather_map_scale_m: defaults.weather_map_scale_m,
             wind_m_s: [0.0, 0.0],
             skew: defaults.skew,
+            shape_noise: 1.0,
             precipitation: 0.0,
             rain_mm_per_h: 0.0,
             weather_driven: true,

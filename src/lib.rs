@@ -30,7 +30,11 @@ pub mod weather;
 /// Everything a game needs to add clouds, in one import.
 pub mod prelude {
     pub use crate::layers::{CloudKind, CloudLayer, DensityProfile};
-    pub use crate::render::noise::{CloudNoisePlugin, CloudNoiseSettings};
+    pub use crate::render::{
+        CloudQuality, VolumetricClouds,
+        march::CloudMarchPlugin,
+        noise::{CloudNoisePlugin, CloudNoiseSettings},
+    };
     pub use crate::sky::{ClockMode, SceneClock, SkyPlugin, Sun};
     pub use crate::weather::{
         CurrentWeather, Forecast, GeoOrigin, LayerSlot, UtcInstant, WeatherPlugin, WeatherSource,
@@ -55,6 +59,7 @@ impl PluginGroup for CloudscapePlugin {
             .add(weather::WeatherPlugin)
             .add(sky::SkyPlugin)
             .add(render::noise::CloudNoisePlugin)
+            .add(render::march::CloudMarchPlugin)
     }
 }
 

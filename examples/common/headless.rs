@@ -132,7 +132,10 @@ impl Headless {
                 })
                 .disable::<WinitPlugin>()
                 .disable::<PipelinedRenderingPlugin>()
-                .disable::<bevy::log::LogPlugin>(),
+                .set(bevy::log::LogPlugin {
+                    level: bevy::log::Level::WARN,
+                    ..default()
+                }),
         );
         let target = app
             .world_mut()

@@ -196,7 +196,7 @@ pub fn render_target_image(size: UVec2, format: TextureFormat) -> Image {
 }
 
 /// Sun elevation of the sky scene, degrees above the horizon.
-pub const SKY_SCENE_SUN_ELEVATION_DEG: f32 = 12.0;
+pub const SKY_SCENE_SUN_ELEVATION_DEG: f32 = 25.0;
 /// Sun azimuth of the sky scene, degrees clockwise from the camera's view direction.
 pub const SKY_SCENE_SUN_AZIMUTH_DEG: f32 = 30.0;
 /// Vertical field of view of the sky scene camera, degrees.
@@ -240,8 +240,11 @@ pub fn spawn_sky_scene(
     ));
 }
 
-/// The sky scene's camera: 1.8 m above the ground, looking 3° below the horizon along -Z, with
-/// the exposure Bevy's atmosphere example uses for raw sunlight.
+/// Pitch of the sky scene camera, degrees above the horizon.
+pub const SKY_SCENE_PITCH_DEG: f32 = 12.0;
+
+/// The sky scene's camera: 1.8 m above the ground, looking [`SKY_SCENE_PITCH_DEG`] above the
+/// horizon along -Z, with the exposure Bevy's atmosphere example uses for raw sunlight.
 pub fn sky_scene_camera() -> impl Bundle {
     (
         Camera3d::default(),
@@ -249,8 +252,10 @@ pub fn sky_scene_camera() -> impl Bundle {
             fov: SKY_SCENE_FOV_DEG.to_radians(),
             ..default()
         }),
-        Transform::from_xyz(0.0, 1.8, 0.0)
-            .looking_to(Vec3::new(0.0, -(3.0f32.to_radians().tan()), -1.0), Vec3::Y),
+        Transform::from_xyz(0.0, 1.8, 0.0).looking_to(
+            Vec3::new(0.0, SKY_SCENE_PITCH_DEG.to_radians().tan(), -1.0),
+            Vec3::Y,
+        ),
         AtmosphereSettings::default(),
         Exposure { ev100: 13.0 },
         Tonemapping::AcesFitted,

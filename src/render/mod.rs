@@ -1,6 +1,123 @@
-//! GPU passes, in the order a frame runs them.
+//! GPU passes, in the order a frame runs them, and the camera settings that opt into them.
 //!
 //! - [`noise`]: a compute pass that fills the tileable cloud-noise textures once, and again only
 //!   when [`noise::CloudNoiseSettings`] change.
+//! - [`march`]: a fullscreen pass per camera with [`VolumetricClouds`] that ray-marches the
+//!   [`CloudLayer`](crate::layers::CloudLayer)s, stops at scene geometry and composites the clouds
+//!   over the scene in HDR.
 
+pub mod march;
 pub mod noise;
+
+use bevy::{camera::Hdr, core_pipeline::prepass::DepthPrepass, prelude::*};
+
+/// Named quality presets of [`VolumetricClouds`]; `Custom` once a knob differs from a preset.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Reflect)]
+pub enum CloudQuality {
+    /// [`VolumetricClouds::LOW`].
+    Low,
+    /// [`VolumetricClouds::MEDIUM`].
+    #[default]
+    Medium,
+    /// [`VolumetricClouds::HIGH`].
+    High,
+    /// [`VolumetricClouds::ULTRA`].
+    Ultra,
+    /// Hand-tuned knobs.
+    Custom,
+}
+
+/// Put on a 3D camera to render volumetric clouds for it. It brings a depth prepass (the march
+/// stops at scene geometry) and HDR (the clouds are composited before tonemapping).
+///
+/// Start from a preset ([`VolumetricClouds::MEDIUM`] is the default) and change knobs; every
+/// knob is live-editable.
+#[derive(Component, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Component, Default)]
+#[require(DepthPrepass, Hdr)]
+pub struct VolumetricClouds {
+    /// Which preset these knobs came from (informational).
+    pub quality: CloudQuality,
+    /// Steps along the view ray through each layer interval (1–1024).
+    pub primary_steps: u32,
+    /// Steps of the light march toward the sun from each sample (0–64; 0 = unshadowed).
+    pub light_steps: u32,
+    /// How fast steps grow with distance from the camera, 1/m: a step at distance `d` is
+    /// `1 + step_growth · d` times longer than one at the camera. 0 keeps steps even.
+    pub step_growth: f32,
+    /// The march stops once the view transmittance falls below this (0–1). Default 0.01.
+    pub transmittance_cutoff: f32,
+    /// Multiple-scattering octaves (Wrenninge 2013; 1 = single scattering only, up to 8).
+    pub multiple_scattering_octaves: u32,
+    /// Jitter the ray start per pixel and frame (interleaved gradient noise) to trade banding
+    /// for fine noise. Default true.
+    pub jitter: bool,
+    /// Radius of the planet the layers are shells around, metres. Default 6 371 000 (Earth's
+    /// mean radius).
+    pub planet_radius_m: f32,
+    /// Scene y of the ground the layer altitudes are measured from, metres; the planet's
+    /// centre is at `(0, ground_height_m − planet_radius_m, 0)`. Default 0.
+    pub ground_height_m: f32,
+    /// Period of the base (shape) noise, metres. Default 4 000 m.
+    pub shape_scale_m: f32,
+    /// Period of the detail (erosion) noise, metres. Default 700 m.
+    pub detail_scale_m: f32,
+    /// How much the detail noise erodes cloud edges (0–0.9). Default 0.35.
+    pub detail_erosion: f32,
+    /// Forward lobe of the dual-lobe Henyey-Greenstein phase function (−1–1). Default 0.8.
+    pub phase_g_forward: f32,
+    /// Backward lobe (−1–1). Default −0.3.
+    pub phase_g_back: f32,
+    /// Weight of the backward lobe (0–1). Default 0.2.
+    pub phase_blend: f32,
+}
+
+impl VolumetricClouds {
+    /// Fast: few steps, no light march beyond 3 samples.
+    pub const LOW: Self = Self {
+        quality: CloudQuality::Low,
+        primary_steps: 24,
+        light_steps: 3,
+        multiple_scattering_octaves: 2,
+        ..Self::MEDIUM
+    };
+    /// The default balance of speed and quality.
+    pub const MEDIUM: Self = Self {
+        quality: CloudQuality::Medium,
+        primary_steps: 48,
+        light_steps: 5,
+        step_growth: 2.0e-5,
+        transmittance_cutoff: 0.01,
+        multiple_scattering_octaves: 4,
+        jitter: true,
+        planet_radius_m: 6_371_000.0,
+        ground_height_m: 0.0,
+        shape_scale_m: 4_000.0,
+        detail_scale_m: 700.0,
+        detail_erosion: 0.35,
+        phase_g_forward: 0.8,
+        phase_g_back: -0.3,
+        phase_blend: 0.2,
+    };
+    /// More steps for close-ups and stills.
+    pub const HIGH: Self = Self {
+        quality: CloudQuality::High,
+        primary_steps: 96,
+        light_steps: 8,
+        ..Self::MEDIUM
+    };
+    /// Many steps: screenshots and references.
+    pub const ULTRA: Self = Self {
+        quality: CloudQuality::Ultra,
+        primary_steps: 192,
+        light_steps: 12,
+        transmittance_cutoff: 0.002,
+        ..Self::MEDIUM
+    };
+}
+
+impl Default for VolumetricClouds {
+    fn default() -> Self {
+        Self::MEDIUM
+    }
+}

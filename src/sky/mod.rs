@@ -10,6 +10,7 @@
 //!   nothing as the sun's disc sets.
 
 mod clock;
+pub mod light;
 pub mod solar;
 mod sun;
 

@@ -2,6 +2,7 @@
 //! (lavapipe on CI), asset hot reload. One test binary with modules, because every binary links
 //! Bevy.
 
+mod clouds;
 #[path = "../../examples/common/mod.rs"]
 mod common;
 mod harness;

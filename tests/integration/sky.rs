@@ -68,13 +68,16 @@ fn atmosphere_sky_and_sunlit_ground() {
         "sky near the sun ({near_sun}) must be brighter than away from it ({away})"
     );
 
-    // The bottom third of the frame is ground lit by the sun at 12°: neither black nor clipped.
-    let ground = pixels.mean_luminance(0, size.x, size.y * 2 / 3, size.y);
+    // Below the horizon is ground lit by the sun: neither black nor clipped.
+    let horizon = project(Vec3::NEG_Z, &camera_transform, size).y as u32;
+    let ground_rows = horizon + 4..size.y;
+    assert!(ground_rows.len() >= 8, "enough ground in view");
+    let ground = pixels.mean_luminance(0, size.x, ground_rows.start, ground_rows.end);
     assert!(
         (0.02..1.0).contains(&ground),
         "lit ground luminance {ground} must be neither black nor saturated"
     );
-    let mut ground_values: Vec<f32> = (size.y * 2 / 3..size.y)
+    let mut ground_values: Vec<f32> = ground_rows
         .flat_map(|y| (0..size.x).map(move |x| (x, y)))
         .map(|(x, y)| pixels.luminance(x, y))
         .collect();

@@ -1,0 +1,774 @@
+#define_import_path bevy_cloudscape::clouds
+
+// The cloud ray-march: shell geometry on a curved planet, seed 002's density model, the light
+// march toward the sun and Hillaire 2016's energy-conserving integration. A shader library: the
+// entry shader imports it, declares @binding(0) `view: View` and @binding(1) the depth prepass,
+// builds one ray per pixel and calls `march_clouds`.
+//
+// CPU twin: `src/reference/render.rs`. Every function here has a Rust function of the same name
+// there (f64 there, f32 here; the private per-ray helpers are methods of its `Ray`) and the GPU
+// output is tested against it, so change both together. The module docs there explain the
+// geometry, the density model and the lighting, with their sources:
+// - Hillaire 2016, "Physically Based Sky, Atmosphere and Cloud Rendering in Frostbite";
+// - Wrenninge 2013, "Oz: the great and volumetric" (multiple-scattering octaves);
+// - Schneider 2015, "The real-time volumetric cloudscapes of Horizon Zero Dawn";
+// - seed 002 (Aetherius): "Density Model", "Cloud Lighting", "Multiple Scattering
+//   Approximation", "Atmosphere", "Optimization".
+//
+// Units: metres, 1/m for extinction, radians. All positions are relative to the camera and
+// distances along a ray come from the camera altitude and mu = dot(direction, up), never from
+// positions near the planet centre, so f32 keeps centimetres where it matters.
+//
+// Output of `march_clouds`: vec4(in-scattered radiance RGB, view transmittance), composited as
+// `scene * T + L`. Radiance is in the units of `sun_illuminance` per steradian (lux -> cd/m^2)
+// *before exposure*: the entry shader multiplies it by the view's exposure.
+
+// Per-view uniforms, 160 bytes. Every scalar group fills 16 bytes before the first vec4, so the
+// layout is the same under WGSL's uniform rules and encase. Mirror in Rust (`MarchSettings` in
+// reference/render.rs is the f64 source of the same values):
+//
+//     #[derive(ShaderType)]
+//     struct GpuCloudUniforms {
+//         planet_radius_m: f32,        // offset   0, default 6 371 000
+//         camera_altitude_m: f32,      // offset   4, above the ground sphere, computed in f64
+//         pixel_angle_rad: f32,        // offset   8, footprint of a pixel, for mip selection
+//         step_growth: f32,            // offset  12, 1/m
+//         primary_steps: u32,          // offset  16, per interval, 1..=1024
+//         light_steps: u32,            // offset  20, 0..=64
+//         octaves: u32,                // offset  24, 1..=8
+//         layer_count: u32,            // offset  28, entries of `cloud_layers` used
+//         transmittance_cutoff: f32,   // offset  32
+//         ms_attenuation: f32,         // offset  36, Wrenninge a (0.3)
+//         ms_contribution: f32,        // offset  40, Wrenninge b (0.75)
+//         ms_eccentricity: f32,        // offset  44, Wrenninge c (0.5)
+//         phase_g_forward: f32,        // offset  48
+//         phase_g_back: f32,           // offset  52
+//         phase_blend: f32,            // offset  56, weight of the back lobe
+//         jitter: u32,                 // offset  60, 0 off, 1 on
+//         frame_index: u32,            // offset  64
+//         pad_a: u32,              // offset  68
+//         pad_b: u32,              // offset  72
+//         pad_c: u32,              // offset  76
+//         camera_up: Vec4,             // offset  80, xyz unit up at the camera, w unused
+//         sun_direction: Vec4,         // offset  96, xyz unit toward the sun (world), w unused
+//         sun_illuminance: Vec4,       // offset 112, rgb lux at the clouds, atmosphere applied
+//         ambient_top: Vec4,           // offset 128, rgb sky radiance at cloud tops
+//         ambient_bottom: Vec4,        // offset 144, rgb sky radiance at cloud bases
+//     }
+struct CloudUniforms {
+    // Radius of the ground sphere, m.
+    planet_radius_m: f32,
+    // Camera altitude above the ground sphere, m (computed on the CPU in f64).
+    camera_altitude_m: f32,
+    // Angle a pixel subtends, rad: a sample at distance t stands for t * pixel_angle_rad metres.
+    pixel_angle_rad: f32,
+    // A primary step at distance t is (1 + step_growth * t) times one at the camera; 1/m.
+    step_growth: f32,
+    // Primary steps across each interval of layers the ray crosses.
+    primary_steps: u32,
+    // Light-march steps toward the sun (0: no self-shadowing).
+    light_steps: u32,
+    // Multiple-scattering octaves (1: single scattering).
+    octaves: u32,
+    // Number of layers in `cloud_layers` (inactive ones may be left out by the CPU or not).
+    layer_count: u32,
+    // The march stops once the view transmittance is at or below this.
+    transmittance_cutoff: f32,
+    // Wrenninge 2013 octave factors a, b, c (seed 002: 0.3, 0.75, 0.5).
+    ms_attenuation: f32,
+    ms_contribution: f32,
+    ms_eccentricity: f32,
+    // Dual-lobe Henyey-Greenstein: forward and backward asymmetry, weight of the back lobe.
+    phase_g_forward: f32,
+    phase_g_back: f32,
+    phase_blend: f32,
+    // Interleaved-gradient-noise jitter of the ray start: 0 off (step midpoints), 1 on.
+    jitter: u32,
+    // Frame counter that animates the jitter.
+    frame_index: u32,
+    pad_a: u32,
+    pad_b: u32,
+    pad_c: u32,
+    // xyz: unit vector from the planet centre through the camera.
+    camera_up: vec4<f32>,
+    // xyz: unit vector toward the sun, world space.
+    sun_direction: vec4<f32>,
+    // rgb: sun illuminance at the clouds, lux, already attenuated by the atmosphere.
+    sun_illuminance: vec4<f32>,
+    // rgb: ambient sky radiance at the top and at the bottom of a layer, cd/m^2.
+    ambient_top: vec4<f32>,
+    ambient_bottom: vec4<f32>,
+}
+
+// One cloud layer, 144 bytes (an array stride of 144 in the storage buffer). Mirror in Rust
+// (`MarchLayer` in reference/render.rs is the f64 source of the same values):
+//
+//     #[derive(ShaderType)]
+//     struct GpuCloudLayer {
+//         base_m: f32,                 // offset   0, above ground
+//         top_m: f32,                  // offset   4, above ground
+//         coverage: f32,               // offset   8, 0-1
+//         extinction: f32,             // offset  12, 1/m of the densest cloud
+//         weather_scale_m: f32,        // offset  16, m per weather-noise period
+//         shape_scale_m: f32,          // offset  20, m per base-noise period
+//         detail_scale_m: f32,         // offset  24, m per detail-noise period
+//         detail_erosion: f32,         // offset  28, 0-0.9
+//         shape_strength: f32,         // offset  32, 0 = homogeneous slab
+//         precipitation: f32,          // offset  36, 0-1 darkening
+//         profile_count: u32,          // offset  40, 0..=8 (0: density 1 everywhere)
+//         pad: u32,               // offset  44
+//         weather_offset_m: Vec4,      // offset  48, xy weather offset (m), zw skew (m per m;
+//                                      //   -skew * wind direction leans tops downwind)
+//         noise_offset_m: Vec4,        // offset  64, xy base-noise offset, zw detail offset (m)
+//         profile: [Vec4; 4],          // offset  80, (h0, d0, h1, d1), (h2, d2, h3, d3), ...
+//     }
+//
+// Offsets are wrapped by their own period on the CPU in f64 (`MarchLayer::set_noise_origin`), so
+// they stay below one period. Horizontal coordinates are along `horizontal_axes(up)`.
+struct CloudLayerGpu {
+    base_m: f32,
+    top_m: f32,
+    coverage: f32,
+    extinction: f32,
+    weather_scale_m: f32,
+    shape_scale_m: f32,
+    detail_scale_m: f32,
+    detail_erosion: f32,
+    shape_strength: f32,
+    precipitation: f32,
+    profile_count: u32,
+    pad: u32,
+    weather_offset_m: vec4<f32>,
+    noise_offset_m: vec4<f32>,
+    profile: array<vec4<f32>, 4>,
+}
+
+@group(0) @binding(2) var<uniform> clouds: CloudUniforms;
+@group(0) @binding(3) var<storage, read> cloud_layers: array<CloudLayerGpu>;
+// Rgba8Unorm with full mips: R Perlin-Worley, G/B/A Worley fBm (reference/noise.rs).
+@group(0) @binding(4) var base_noise: texture_3d<f32>;
+// Rgba8Unorm with full mips: R/G/B Worley fBm, A unused.
+@group(0) @binding(5) var detail_noise: texture_3d<f32>;
+// Rgba8Unorm, one mip: R coverage Perlin-Worley, G variation, B/A curl. Read with textureLoad
+// and filtered in the shader (`sample_weather_noise`).
+@group(0) @binding(6) var weather_noise: texture_2d<f32>;
+// linear / linear / linear-mip, repeat.
+@group(0) @binding(7) var noise_sampler: sampler;
+
+// Rust: the constants of the same names; see their docs there.
+const MAX_PROFILE_POINTS: u32 = 8u;
+const MAX_SCATTERING_OCTAVES: u32 = 8u;
+const MAX_PRIMARY_STEPS: u32 = 1024u;
+const MAX_LIGHT_STEPS: u32 = 64u;
+const CHEAP_STRIDE: u32 = 4u;
+const EMPTY_STEPS_TO_CHEAP: u32 = 4u;
+const PRECIPITATION_ABSORPTION: f32 = 0.5;
+const MAX_DETAIL_EROSION: f32 = 0.9;
+const DETAIL_TRANSITION_HEIGHT: f32 = 0.2;
+const MAX_PHASE_G: f32 = 0.999;
+const FBM_WEIGHTS: vec3<f32> = vec3<f32>(0.625, 0.25, 0.125);
+const WEATHER_COVERAGE_RANGE: vec2<f32> = vec2<f32>(0.4, 0.95);
+const COVERAGE_EDGE_WIDTH: f32 = 0.25;
+const OVERCAST_COVERAGE: f32 = 0.9;
+const NO_HIT: f32 = -1.0;
+// f32 has no infinity literal: "no distance" / "the sky" is this (Rust: f64::INFINITY). Pass it,
+// or any larger value, as `t_max` for sky pixels.
+const FAR_AWAY: f32 = 3.0e38;
+// Below this optical thickness `mean_step_transmittance` uses its series (Rust: SERIES_LIMIT,
+// 1e-5 there because f64 has expm1).
+const SERIES_LIMIT: f32 = 0.1;
+const PI: f32 = 3.141592653589793;
+
+fn saturate(x: f32) -> f32 {
+    return clamp(x, 0.0, 1.0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Geometry
+// ---------------------------------------------------------------------------------------------
+
+// Distances (near, far) along a ray to the sphere at `sphere_altitude` above the ground, for a
+// camera at altitude `h` with mu = dot(direction, up); (NO_HIT, NO_HIT) on a miss. With
+// A = R + h: t^2 + 2bt + c = 0, b = A mu, c = (h - alt)(2R + h + alt); discriminant
+// (alt - h)(2R + alt + h) + b^2; stable roots q = -(b + sign(b) sqrt(disc)) and c / q.
+// Rust: `intersect_altitude_sphere`.
+fn intersect_altitude_sphere(h: f32, mu: f32, planet_radius: f32, sphere_altitude: f32) -> vec2<f32> {
+    let b = (planet_radius + h) * mu;
+    let c = (h - sphere_altitude) * (2.0 * planet_radius + h + sphere_altitude);
+    let discriminant = (sphere_altitude - h) * (2.0 * planet_radius + sphere_altitude + h) + b * b;
+    if !(discriminant >= 0.0) {
+        return vec2<f32>(NO_HIT);
+    }
+    let q = -(b + select(-1.0, 1.0, b >= 0.0) * sqrt(discriminant));
+    if q == 0.0 {
+        return vec2<f32>(0.0);
+    }
+    let r = c / q;
+    return vec2<f32>(min(q, r), max(q, r));
+}
+
+// Altitude at distance t along the ray: h + s / (A + sqrt(A^2 + s)), A = R + h,
+// s = 2 A mu t + t^2, without subtracting two planet radii. Rust: `altitude_along_ray`.
+fn altitude_along_ray(h: f32, mu: f32, t: f32, planet_radius: f32) -> f32 {
+    let a = planet_radius + h;
+    let s = 2.0 * a * mu * t + t * t;
+    return h + s / (a + sqrt(max(a * a + s, 0.0)));
+}
+
+// Distance to the ground sphere ahead, FAR_AWAY if the ray does not go into the ground (tangent
+// rays graze; a camera below the ground sphere is not stopped). Rust: `ground_distance`.
+fn ground_distance(h: f32, mu: f32, planet_radius: f32) -> f32 {
+    let t = intersect_altitude_sphere(h, mu, planet_radius, 0.0);
+    return select(FAR_AWAY, t.x, t.x >= 0.0 && t.y > t.x);
+}
+
+// The parts of a ray inside the shell [base, top]: xy and zw are segments [start, end] (empty
+// when end <= start), not clipped to the ground or the scene. Rust: `shell_segments`.
+fn shell_segments(h: f32, mu: f32, planet_radius: f32, base: f32, top: f32) -> vec4<f32> {
+    let outer = intersect_altitude_sphere(h, mu, planet_radius, top);
+    let inner = intersect_altitude_sphere(h, mu, planet_radius, base);
+    let near_start = max(outer.x, 0.0);
+    return vec4<f32>(near_start, min(inner.x, outer.y), max(inner.y, near_start), outer.y);
+}
+
+// Number of layers to read: the uniform's count, never past the buffer.
+fn cloud_layer_count() -> u32 {
+    return min(clouds.layer_count, arrayLength(&cloud_layers));
+}
+
+// Rust: `layer_is_active`.
+fn layer_is_active(layer: CloudLayerGpu) -> bool {
+    return layer.coverage > 0.0 && layer.extinction > 0.0 && layer.top_m > layer.base_m;
+}
+
+// Next interval [start, end] at or after t_from where the ray is inside an active layer, the
+// pieces of every layer merged, clipped to t_max; start >= end when none. Rust:
+// `next_cloud_interval`.
+fn next_cloud_interval(h: f32, mu: f32, t_from: f32, t_max: f32) -> vec2<f32> {
+    let count = cloud_layer_count();
+    let radius = clouds.planet_radius_m;
+    var start = FAR_AWAY;
+    for (var i = 0u; i < count; i++) {
+        let layer = cloud_layers[i];
+        if !layer_is_active(layer) {
+            continue;
+        }
+        let s = shell_segments(h, mu, radius, layer.base_m, layer.top_m);
+        if s.y > s.x && s.y > t_from {
+            start = min(start, max(s.x, t_from));
+        }
+        if s.w > s.z && s.w > t_from {
+            start = min(start, max(s.z, t_from));
+        }
+    }
+    if !(start < t_max) {
+        return vec2<f32>(t_max);
+    }
+    // Grow the end over every piece that starts inside; each pass adds one piece at least.
+    var end = start;
+    for (var guard = 0u; guard <= 2u * count; guard++) {
+        var grown = false;
+        for (var i = 0u; i < count; i++) {
+            let layer = cloud_layers[i];
+            if !layer_is_active(layer) {
+                continue;
+            }
+            let s = shell_segments(h, mu, radius, layer.base_m, layer.top_m);
+            if s.y > s.x && s.y > t_from && s.x <= end && s.y > end {
+                end = s.y;
+                grown = true;
+            }
+            if s.w > s.z && s.w > t_from && s.z <= end && s.w > end {
+                end = s.w;
+                grown = true;
+            }
+        }
+        if !grown {
+            break;
+        }
+    }
+    return vec2<f32>(start, min(end, t_max));
+}
+
+// Horizontal noise axes perpendicular to up: world +x and +z when up is +y. Rust:
+// `horizontal_axes` (returns [x, z]).
+struct HorizontalAxes {
+    x: vec3<f32>,
+    z: vec3<f32>,
+}
+
+fn horizontal_axes(up: vec3<f32>) -> HorizontalAxes {
+    var x = cross(up, vec3<f32>(0.0, 0.0, 1.0));
+    if dot(x, x) < 1e-6 {
+        x = cross(up, vec3<f32>(1.0, 0.0, 0.0));
+    }
+    x = normalize(x);
+    return HorizontalAxes(x, cross(x, up));
+}
+
+// expm1 and log1p, accurate near 0 where exp(x) - 1 and log(1 + x) lose digits in f32 (the Rust
+// twin uses f64's exp_m1 and ln_1p).
+fn expm1_stable(x: f32) -> f32 {
+    if abs(x) < 1e-2 {
+        return x * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x / 24.0)));
+    }
+    return exp(x) - 1.0;
+}
+
+fn log1p_stable(x: f32) -> f32 {
+    if abs(x) < 1e-2 {
+        return x * (1.0 - x * (0.5 - x * (1.0 / 3.0 - x * 0.25)));
+    }
+    return log(1.0 + x);
+}
+
+// Boundary k of n in an interval lies at start + (end - start) * step_warp(k / n, beta),
+// beta = g (end - start) / (1 + g start): steps (1 + g t) times as long as at the camera.
+// step_warp = ((1 + beta)^u - 1) / beta = expm1(u log1p(beta)) / beta. Rust: `step_warp`.
+fn step_warp(u: f32, beta: f32) -> f32 {
+    if beta <= 1e-6 {
+        return u;
+    }
+    return expm1_stable(u * log1p_stable(beta)) / beta;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Density (seed 002, "Density Model"; Schneider 2015)
+// ---------------------------------------------------------------------------------------------
+
+// Piecewise-linear profile at a height fraction, end values held, 1 with no points.
+// Rust: `profile_density`.
+fn profile_density(layer: CloudLayerGpu, height_fraction: f32) -> f32 {
+    let count = min(layer.profile_count, MAX_PROFILE_POINTS);
+    if count == 0u {
+        return 1.0;
+    }
+    // A local copy: arrays held by value cannot be indexed dynamically.
+    var packed = layer.profile;
+    let first = packed[0].xy;
+    if height_fraction <= first.x {
+        return first.y;
+    }
+    var previous = first;
+    for (var i = 1u; i < count; i++) {
+        let pair = packed[i >> 1u];
+        let point = select(pair.xy, pair.zw, (i & 1u) == 1u);
+        if height_fraction <= point.x {
+            let span = point.x - previous.x;
+            if span > 0.0 {
+                return mix(previous.y, point.y, (height_fraction - previous.x) / span);
+            }
+            return point.y;
+        }
+        previous = point;
+    }
+    return previous.y;
+}
+
+// Local coverage from the layer coverage and the weather channel: 0 everywhere at coverage 0,
+// 1 everywhere at coverage 1. Rust: `local_coverage`.
+fn local_coverage(coverage: f32, weather: f32) -> f32 {
+    if !(coverage > 0.0) {
+        return 0.0;
+    }
+    let w = saturate((weather - WEATHER_COVERAGE_RANGE.x) / (WEATHER_COVERAGE_RANGE.y - WEATHER_COVERAGE_RANGE.x));
+    let field = saturate((w - (1.0 - coverage)) / COVERAGE_EDGE_WIDTH);
+    let overcast = saturate((coverage - OVERCAST_COVERAGE) / (1.0 - OVERCAST_COVERAGE));
+    return max(field, overcast);
+}
+
+// Rust: `remap`.
+fn remap(value: f32, old_min: f32, old_max: f32, new_min: f32, new_max: f32) -> f32 {
+    return new_min + (value - old_min) / (old_max - old_min) * (new_max - new_min);
+}
+
+// Perlin-Worley carved by the low-frequency Worley fBm (seed 002, Figure 36). Rust: `base_shape`.
+fn base_shape(sample: vec4<f32>) -> f32 {
+    let fbm = dot(sample.yzw, FBM_WEIGHTS);
+    return saturate(remap(sample.x, fbm - 1.0, 1.0, 0.0, 1.0));
+}
+
+// Detail fBm near the base (wisps), its inverse higher up (billows). Rust: `detail_erosion`.
+fn detail_erosion(sample: vec4<f32>, height_fraction: f32) -> f32 {
+    let fbm = dot(sample.xyz, FBM_WEIGHTS);
+    return mix(fbm, 1.0 - fbm, saturate(height_fraction / DETAIL_TRANSITION_HEIGHT));
+}
+
+// Mip level for a footprint on texels texel_m apart. Rust: `texture_lod`.
+fn texture_lod(footprint_m: f32, texel_m: f32) -> f32 {
+    return log2(max(footprint_m / texel_m, 1.0));
+}
+
+// Rust: `NoiseTexture3d::sample` (base), with an explicit level: the march picks mips by
+// distance (seed 002, "LODs Over Distance").
+fn sample_base_noise(uvw: vec3<f32>, lod: f32) -> vec4<f32> {
+    return textureSampleLevel(base_noise, noise_sampler, uvw, lod);
+}
+
+// Rust: `NoiseTexture3d::sample` (detail).
+fn sample_detail_noise(uvw: vec3<f32>, lod: f32) -> vec4<f32> {
+    return textureSampleLevel(detail_noise, noise_sampler, uvw, lod);
+}
+
+// Bilinear, repeating, level 0, filtered here from four `textureLoad`s rather than by the
+// sampler: the coverage ramp multiplies weather errors by about 7, and hardware filtering of
+// Rgba8Unorm is not exact (lavapipe rounds the filtered value to 1/255, which made whole cloud
+// fields 2-5 % denser or thinner than the CPU twin). Texel centres at (i + 0.5) / n.
+// Rust: `NoiseTexture2d::sample`.
+fn sample_weather_noise(uv: vec2<f32>) -> vec4<f32> {
+    let size = vec2<i32>(textureDimensions(weather_noise));
+    let x = uv * vec2<f32>(size) - 0.5;
+    let cell = floor(x);
+    let weight = x - cell;
+    // True modulo on integers, so negative coordinates repeat too.
+    let i0 = (vec2<i32>(cell) % size + size) % size;
+    let i1 = (i0 + 1) % size;
+    let t00 = textureLoad(weather_noise, i0, 0);
+    let t10 = textureLoad(weather_noise, vec2<i32>(i1.x, i0.y), 0);
+    let t01 = textureLoad(weather_noise, vec2<i32>(i0.x, i1.y), 0);
+    let t11 = textureLoad(weather_noise, i1, 0);
+    return mix(mix(t00, t10, weight.x), mix(t01, t11, weight.x), weight.y);
+}
+
+// Extinction (1/m) of one layer at horizontal coordinates `horizontal_m` (along
+// `horizontal_axes`, relative to the camera) and `altitude_m`; `footprint_m` picks the mips;
+// `with_detail = false` is the cheap base-only density (never below the full one).
+// Rust: `layer_density`.
+fn layer_density(layer: CloudLayerGpu, horizontal_m: vec2<f32>, altitude_m: f32, footprint_m: f32, with_detail: bool) -> f32 {
+    let inside = altitude_m >= layer.base_m && altitude_m <= layer.top_m;
+    if !layer_is_active(layer) || !inside {
+        return 0.0;
+    }
+    let height_above_base = altitude_m - layer.base_m;
+    let height_fraction = height_above_base / (layer.top_m - layer.base_m);
+    let profile = profile_density(layer, height_fraction);
+    if !(profile > 0.0) {
+        return 0.0;
+    }
+    var kappa = 1.0;
+    if layer.coverage < 1.0 {
+        let uv = (horizontal_m + layer.weather_offset_m.xy + layer.weather_offset_m.zw * height_above_base)
+            / layer.weather_scale_m;
+        kappa = local_coverage(layer.coverage, sample_weather_noise(uv).x);
+    }
+    if !(kappa > 0.0) {
+        return 0.0;
+    }
+    let strength = saturate(layer.shape_strength);
+    var shape = 1.0;
+    if strength > 0.0 {
+        let uvw = vec3<f32>(horizontal_m.x + layer.noise_offset_m.x, altitude_m, horizontal_m.y + layer.noise_offset_m.y)
+            / layer.shape_scale_m;
+        let texel_m = layer.shape_scale_m / f32(textureDimensions(base_noise).x);
+        shape = mix(1.0, base_shape(sample_base_noise(uvw, texture_lod(footprint_m, texel_m))), strength);
+    }
+    let covered = saturate(remap(shape * profile, 1.0 - kappa, 1.0, 0.0, 1.0)) * kappa;
+    let erosion_strength = clamp(layer.detail_erosion, 0.0, MAX_DETAIL_EROSION) * strength;
+    if !with_detail || !(erosion_strength > 0.0) || !(covered > 0.0) {
+        return covered * layer.extinction;
+    }
+    let uvw = vec3<f32>(horizontal_m.x + layer.noise_offset_m.z, altitude_m, horizontal_m.y + layer.noise_offset_m.w)
+        / layer.detail_scale_m;
+    let texel_m = layer.detail_scale_m / f32(textureDimensions(detail_noise).x);
+    let erosion = erosion_strength * detail_erosion(sample_detail_noise(uvw, texture_lod(footprint_m, texel_m)), height_fraction);
+    return saturate(remap(covered, erosion, 1.0, 0.0, 1.0)) * layer.extinction;
+}
+
+// Rust: `scattering_albedo`.
+fn scattering_albedo(layer: CloudLayerGpu) -> f32 {
+    return 1.0 - PRECIPITATION_ABSORPTION * saturate(layer.precipitation);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Light (Hillaire 2016; Wrenninge 2013; seed 002 "Cloud Lighting")
+// ---------------------------------------------------------------------------------------------
+
+// Rust: `henyey_greenstein`.
+fn henyey_greenstein(cos_theta: f32, g_in: f32) -> f32 {
+    let g = clamp(g_in, -MAX_PHASE_G, MAX_PHASE_G);
+    let denominator = max(1.0 + g * g - 2.0 * g * cos_theta, 1e-12);
+    return (1.0 - g * g) / (4.0 * PI * denominator * sqrt(denominator));
+}
+
+// Rust: `dual_lobe_phase`.
+fn dual_lobe_phase(cos_theta: f32, g_forward: f32, g_back: f32, blend_in: f32) -> f32 {
+    let blend = saturate(blend_in);
+    return (1.0 - blend) * henyey_greenstein(cos_theta, g_forward) + blend * henyey_greenstein(cos_theta, g_back);
+}
+
+// Wrenninge 2013: sum over octaves of b^i exp(-a^i tau) p(c^i g). Rust: `multiple_scattering`.
+fn multiple_scattering(optical_depth: f32, cos_theta: f32) -> f32 {
+    let octaves = clamp(clouds.octaves, 1u, MAX_SCATTERING_OCTAVES);
+    var a = 1.0;
+    var b = 1.0;
+    var c = 1.0;
+    var sum = 0.0;
+    for (var i = 0u; i < octaves; i++) {
+        let phase = dual_lobe_phase(cos_theta, c * clouds.phase_g_forward, c * clouds.phase_g_back, clouds.phase_blend);
+        sum += b * exp(-a * optical_depth) * phase;
+        a *= clouds.ms_attenuation;
+        b *= clouds.ms_contribution;
+        c *= clouds.ms_eccentricity;
+    }
+    return sum;
+}
+
+// Distance to the exit of the shells that hold the point, toward the sun; negative when the
+// ground blocks the sun. Rust: `light_march_distance`.
+fn light_march_distance(altitude_m: f32, mu_sun: f32) -> f32 {
+    let radius = clouds.planet_radius_m;
+    if ground_distance(altitude_m, mu_sun, radius) < FAR_AWAY {
+        return -1.0;
+    }
+    var distance = 0.0;
+    let count = cloud_layer_count();
+    for (var i = 0u; i < count; i++) {
+        let layer = cloud_layers[i];
+        if !layer_is_active(layer) || !(altitude_m >= layer.base_m && altitude_m <= layer.top_m) {
+            continue;
+        }
+        let outer = intersect_altitude_sphere(altitude_m, mu_sun, radius, layer.top_m);
+        let inner = intersect_altitude_sphere(altitude_m, mu_sun, radius, layer.base_m);
+        let through_base = select(FAR_AWAY, inner.x, inner.x >= 0.0);
+        distance = max(distance, min(max(outer.y, 0.0), through_base));
+    }
+    return distance;
+}
+
+// Optical depth toward the sun from `position_m` (relative to the camera at altitude h with
+// vertical up) at `altitude_m`: light_steps steps with boundaries at D (k/n)^2, each sampled at
+// its midpoint; negative when the ground blocks the sun. Rust: `sun_optical_depth`.
+fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f32, footprint_m: f32) -> f32 {
+    let radius = clouds.planet_radius_m;
+    let sun = clouds.sun_direction.xyz;
+    // Local up at the point is (A up + p) / (R + alt); only its dot with the sun is needed.
+    let mu_sun = clamp(((radius + h) * dot(sun, up) + dot(sun, position_m)) / (radius + altitude_m), -1.0, 1.0);
+    let distance = light_march_distance(altitude_m, mu_sun);
+    if distance < 0.0 {
+        return -1.0;
+    }
+    let steps = min(clouds.light_steps, MAX_LIGHT_STEPS);
+    if steps == 0u || distance == 0.0 {
+        return 0.0;
+    }
+    let axes = horizontal_axes(up);
+    let n = f32(steps);
+    let count = cloud_layer_count();
+    var optical_depth = 0.0;
+    for (var k = 0u; k < steps; k++) {
+        let u0 = f32(k) / n;
+        let u1 = f32(k + 1u) / n;
+        let s0 = distance * u0 * u0;
+        let s1 = distance * u1 * u1;
+        let s = 0.5 * (s0 + s1);
+        let ds = s1 - s0;
+        let point = position_m + sun * s;
+        let altitude = altitude_along_ray(altitude_m, mu_sun, s, radius);
+        let horizontal = vec2<f32>(dot(point, axes.x), dot(point, axes.z));
+        var extinction = 0.0;
+        for (var i = 0u; i < count; i++) {
+            extinction += layer_density(cloud_layers[i], horizontal, altitude, max(footprint_m, ds), true);
+        }
+        optical_depth += extinction * ds;
+    }
+    return optical_depth;
+}
+
+// (1 - exp(-x)) / x, the mean transmittance across a step of optical thickness x: Hillaire
+// 2016's energy-conserving step integral is S dt f(x). A series below SERIES_LIMIT (no 0/0 at
+// sigma = 0, no lost digits as x -> 0), 1/x for large x. Rust: `mean_step_transmittance`.
+fn mean_step_transmittance(x_in: f32) -> f32 {
+    let x = max(x_in, 0.0);
+    if x < SERIES_LIMIT {
+        return 1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x / 120.0)));
+    }
+    return (1.0 - exp(-x)) / x;
+}
+
+// Interleaved gradient noise (Jimenez 2014), shifted 5.588238 pixels per frame (mod 64).
+// Rust: `interleaved_gradient_noise`.
+fn interleaved_gradient_noise(pixel: vec2<f32>, frame: u32) -> f32 {
+    let p = pixel + vec2<f32>(5.588238 * f32(frame % 64u));
+    return fract(52.9829189 * fract(dot(p, vec2<f32>(0.06711056, 0.00583715))));
+}
+
+// Sample offset within each step: IGN when jitter is on, the midpoint 0.5 when off.
+// Rust: `ray_start_jitter`.
+fn ray_start_jitter(pixel: vec2<f32>) -> f32 {
+    if clouds.jitter != 0u {
+        return interleaved_gradient_noise(pixel, clouds.frame_index);
+    }
+    return 0.5;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The march
+// ---------------------------------------------------------------------------------------------
+
+// One ray's constants and state. Rust: `Ray`.
+struct MarchRay {
+    camera_altitude_m: f32,
+    up: vec3<f32>,
+    mu: f32,
+    direction: vec3<f32>,
+    horizontal_direction: vec2<f32>,
+    cos_sun: f32,
+    sun_on: bool,
+    jitter: f32,
+    // Optical depth so far, summed rather than multiplying exp(-x) into the transmittance,
+    // which drifts by an ulp per step in f32.
+    optical_depth: f32,
+    // exp(-optical_depth).
+    transmittance: f32,
+    radiance: vec3<f32>,
+}
+
+// Rust: `Ray::altitude`.
+fn ray_altitude(ray: ptr<function, MarchRay>, t: f32) -> f32 {
+    return altitude_along_ray((*ray).camera_altitude_m, (*ray).mu, t, clouds.planet_radius_m);
+}
+
+// Cheap base-only extinction of every layer at distance t. Rust: `Ray::cheap_extinction`.
+fn cheap_extinction(ray: ptr<function, MarchRay>, t: f32) -> f32 {
+    let altitude = ray_altitude(ray, t);
+    let horizontal = (*ray).horizontal_direction * t;
+    let footprint = t * clouds.pixel_angle_rad;
+    let count = cloud_layer_count();
+    var extinction = 0.0;
+    for (var i = 0u; i < count; i++) {
+        extinction += layer_density(cloud_layers[i], horizontal, altitude, footprint, false);
+    }
+    return extinction;
+}
+
+// One full-detail step over [ta, tb] sampled at the jittered point; true if it found cloud.
+// Rust: `Ray::step`.
+fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32) -> bool {
+    let dt = tb - ta;
+    let t = ta + (*ray).jitter * dt;
+    let altitude = ray_altitude(ray, t);
+    let horizontal = (*ray).horizontal_direction * t;
+    let footprint = t * clouds.pixel_angle_rad;
+    var extinction = 0.0;
+    var scattering = 0.0;
+    var ambient = vec3<f32>(0.0);
+    let count = cloud_layer_count();
+    for (var i = 0u; i < count; i++) {
+        let layer = cloud_layers[i];
+        let sigma = layer_density(layer, horizontal, altitude, footprint, true);
+        if sigma > 0.0 {
+            let sigma_s = sigma * scattering_albedo(layer);
+            // Ambient sky light grows from the base to the top (seed 002, "Day / Night Cycle").
+            let height = saturate((altitude - layer.base_m) / (layer.top_m - layer.base_m));
+            ambient += sigma_s * mix(clouds.ambient_bottom.xyz, clouds.ambient_top.xyz, height);
+            extinction += sigma;
+            scattering += sigma_s;
+        }
+    }
+    if !(extinction > 0.0) {
+        return false;
+    }
+    var sun = 0.0;
+    if (*ray).sun_on {
+        let position = (*ray).direction * t;
+        let optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint);
+        if optical_depth >= 0.0 {
+            sun = multiple_scattering(optical_depth, (*ray).cos_sun);
+        }
+    }
+    // Hillaire 2016: the integral of T S over the step is T S dt (1 - exp(-x)) / x.
+    let x = extinction * dt;
+    let weight = (*ray).transmittance * dt * mean_step_transmittance(x);
+    (*ray).radiance += weight * (scattering * clouds.sun_illuminance.xyz * sun + ambient);
+    (*ray).optical_depth += x;
+    (*ray).transmittance = exp(-(*ray).optical_depth);
+    return true;
+}
+
+// primary_steps steps over [start, end], growing with distance, with two-level stepping
+// (Schneider 2015; seed 002 "Optimization"); false once the cut-off is reached.
+// Rust: `Ray::march_interval`.
+fn march_interval(ray: ptr<function, MarchRay>, start: f32, end: f32) -> bool {
+    let steps = clamp(clouds.primary_steps, 1u, MAX_PRIMARY_STEPS);
+    let growth = max(clouds.step_growth, 0.0);
+    let beta = growth * (end - start) / (1.0 + growth * start);
+    let n = f32(steps);
+    let span = end - start;
+    var k = 0u;
+    var cheap = true;
+    var empty = 0u;
+    // Each pass advances k or switches cheap -> detail (which then advances k).
+    for (var guard = 0u; guard < 2u * steps + 2u; guard++) {
+        if k >= steps {
+            break;
+        }
+        if cheap {
+            let k2 = min(k + CHEAP_STRIDE, steps);
+            let ta = start + span * step_warp(f32(k) / n, beta);
+            let tb = start + span * step_warp(f32(k2) / n, beta);
+            if cheap_extinction(ray, ta + (*ray).jitter * (tb - ta)) > 0.0 {
+                // Cloud ahead: march this stride again in full detail.
+                cheap = false;
+                empty = 0u;
+            } else {
+                k = k2;
+            }
+            continue;
+        }
+        let ta = start + span * step_warp(f32(k) / n, beta);
+        let tb = start + span * step_warp(f32(k + 1u) / n, beta);
+        if march_step(ray, ta, tb) {
+            empty = 0u;
+            if (*ray).transmittance <= clouds.transmittance_cutoff {
+                return false;
+            }
+        } else {
+            empty += 1u;
+            if empty >= EMPTY_STEPS_TO_CHEAP {
+                cheap = true;
+            }
+        }
+        k += 1u;
+    }
+    return true;
+}
+
+// Marches one view ray: returns vec4(in-scattered radiance RGB, view transmittance).
+// h: camera altitude above the ground (m); up: unit local vertical at the camera; direction: unit
+// view ray (world); t_max: distance to the scene along the ray (FAR_AWAY or more for the sky);
+// jitter: sample offset within each step, 0-1 (`ray_start_jitter`). Visits only the intervals
+// where the ray crosses active layers (stopped at the ground), at most 2 * layers + 1 of them.
+// Radiance is before exposure. Rust: `march_clouds`.
+fn march_clouds(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter: f32) -> vec4<f32> {
+    let radius = clouds.planet_radius_m;
+    let mu = clamp(dot(direction, up), -1.0, 1.0);
+    let t_end = min(t_max, ground_distance(h, mu, radius));
+    if !(t_end > 0.0) {
+        return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    }
+    let axes = horizontal_axes(up);
+    let sun = clouds.sun_illuminance.xyz;
+    var ray = MarchRay(
+        h,
+        up,
+        mu,
+        direction,
+        vec2<f32>(dot(direction, axes.x), dot(direction, axes.z)),
+        clamp(dot(direction, clouds.sun_direction.xyz), -1.0, 1.0),
+        any(sun > vec3<f32>(0.0)),
+        saturate(jitter),
+        0.0,
+        1.0,
+        vec3<f32>(0.0),
+    );
+    var t = 0.0;
+    let intervals = 2u * cloud_layer_count() + 1u;
+    for (var i = 0u; i < intervals; i++) {
+        let interval = next_cloud_interval(h, mu, t, t_end);
+        if !(interval.y - interval.x > 0.0) || !march_interval(&ray, interval.x, interval.y) {
+            break;
+        }
+        t = interval.y;
+    }
+    return vec4<f32>(ray.radiance, ray.transmittance);
+}

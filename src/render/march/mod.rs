@@ -1,0 +1,759 @@
+//! The volumetric ray-march: one fullscreen pass per camera with [`VolumetricClouds`].
+//!
+//! For each pixel the entry shader (`march.wgsl`) builds the view ray, ends it at scene geometry
+//! using the depth prepass (reverse-Z, infinite far plane: depth 0 is sky), and calls
+//! `march_clouds` from the shader library `clouds.wgsl`, which marches only the intervals where
+//! the ray crosses a layer shell around the planet, lights each sample with a light march toward
+//! the sun and multiple-scattering octaves, and integrates with Hillaire's energy-conserving
+//! step. The result `(L, T)` is blended onto the HDR main texture as `scene · T + L`, before
+//! tonemapping. The algorithm and its sources are documented in [`crate::reference::render`],
+//! the f64 CPU twin the GPU output is tested against.
+//!
+//! # What a frame costs
+//!
+//! Layers with zero coverage or density are not sent to the GPU; with no visible layer the pass
+//! does not run at all ([`CloudPassStats`] counts the views it marched). The pass runs after the
+//! main (opaque and transparent) passes and before post-processing, like Bevy's volumetric fog;
+//! transparent objects are therefore covered by clouds in front of the opaque depth behind them.
+//!
+//! # Inputs, from one source
+//!
+//! [`march_inputs`] turns a camera, its [`VolumetricClouds`] settings, the sun and the
+//! [`CloudLayer`]s into the reference's [`MarchSettings`] and [`MarchLayer`]s (f64), and the
+//! GPU structs are converted from those with `From`. The CPU reference renderer and the GPU
+//! therefore see the same numbers, rounded to f32 only at the end.
+
+use std::borrow::Cow;
+
+use bevy::{
+    asset::{embedded_asset, load_embedded_asset},
+    core_pipeline::{
+        Core3dSystems, FullscreenShader, prepass::ViewPrepassTextures, schedule::Core3d,
+    },
+    diagnostic::FrameCount,
+    ecs::query::QueryItem,
+    light::Atmosphere,
+    math::DVec3,
+    prelude::*,
+    render::{
+        Extract, ExtractSchedule, Render, RenderApp, RenderStartup, RenderSystems,
+        diagnostic::RecordDiagnostics,
+        render_resource::{
+            binding_types::{
+                sampler, storage_buffer_read_only, texture_2d, texture_3d, texture_depth_2d,
+                texture_depth_2d_multisampled, uniform_buffer,
+            },
+            *,
+        },
+        renderer::{RenderAdapter, RenderContext, RenderDevice, RenderQueue, ViewQuery},
+        sync_world::RenderEntity,
+        view::{ViewTarget, ViewUniform, ViewUniformOffset, ViewUniforms},
+    },
+    shader::load_shader_library,
+};
+
+use super::{VolumetricClouds, noise::CloudNoiseTextures};
+use crate::{
+    CloudscapeSystems,
+    layers::CloudLayer,
+    reference::render::{MAX_PROFILE_POINTS, MarchLayer, MarchSettings},
+    sky::{SceneClock, Sun, light},
+};
+
+/// The ray-march pass; part of [`crate::CloudscapePlugin`].
+#[derive(Debug, Default, Clone, Copy)]
+pub struct CloudMarchPlugin;
+
+impl Plugin for CloudMarchPlugin {
+    fn build(&self, app: &mut App) {
+        load_shader_library!(app, "clouds.wgsl");
+        embedded_asset!(app, "march.wgsl");
+        app.register_type::<VolumetricClouds>()
+            .register_type::<LayerDrift>()
+            .add_systems(
+                Update,
+                drift_cloud_layers
+                    .after(CloudscapeSystems::Layers)
+                    .before(CloudscapeSystems::Sun),
+            );
+        let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
+            return;
+        };
+        render_app
+            .init_resource::<CloudPassStats>()
+            .add_systems(ExtractSchedule, extract_cloud_views);
+    }
+
+    fn finish(&self, app: &mut App) {
+        let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
+            return;
+        };
+        let adapter = render_app.world().resource::<RenderAdapter>();
+        let fragment_storage = adapter
+            .get_downlevel_capabilities()
+            .flags
+            .contains(DownlevelFlags::VERTEX_STORAGE | DownlevelFlags::COMPUTE_SHADERS);
+        let limits = render_app.world().resource::<RenderDevice>().limits();
+        if !fragment_storage || limits.max_storage_buffers_per_shader_stage == 0 {
+            warn!(
+                "bevy_cloudscape: volumetric clouds disabled: the GPU has no storage buffers in \
+                 fragment shaders"
+            );
+            return;
+        }
+        render_app
+            .init_resource::<SpecializedRenderPipelines<CloudMarchPipeline>>()
+            .add_systems(RenderStartup, init_cloud_march_pipeline)
+            .add_systems(
+                Render,
+                (
+                    prepare_cloud_march_pipelines.in_set(RenderSystems::Prepare),
+                    prepare_cloud_view_buffers.in_set(RenderSystems::PrepareResources),
+                ),
+            )
+            .add_systems(
+                Core3d,
+                march_cloud_layers
+                    .after(Core3dSystems::MainPass)
+                    .before(Core3dSystems::EarlyPostProcess),
+            );
+    }
+}
+
+/// Horizontal distance the wind has carried a layer's clouds since start-up, metres, as
+/// `[east, north]` in f64 so a week of wind keeps millimetre precision. Added to every
+/// [`CloudLayer`] automatically; advanced with the [`SceneClock`], so the clouds move at the
+/// scene's speed (1×, 60×, 3600×).
+#[derive(Component, Debug, Clone, Copy, Default, PartialEq, Reflect)]
+#[reflect(Component, Default)]
+pub struct LayerDrift {
+    /// Distance travelled, `[east, north]`, metres.
+    pub offset_m: [f64; 2],
+}
+
+/// Scene-time jumps longer than this (scrubbing the clock) do not move the clouds: a cloud field
+/// blown for a day is no more "right" than the one shown.
+const MAX_DRIFT_STEP_S: f64 = 3_600.0;
+
+fn drift_cloud_layers(
+    mut commands: Commands,
+    clock: Res<SceneClock>,
+    mut last_time: Local<Option<f64>>,
+    mut layers: Query<(Entity, &CloudLayer, Option<&mut LayerDrift>)>,
+) {
+    let now = clock.unix_seconds();
+    let dt = last_time.map_or(0.0, |last| now - last);
+    *last_time = Some(now);
+    let dt = if dt.abs() <= MAX_DRIFT_STEP_S {
+        dt
+    } else {
+        0.0
+    };
+    for (entity, layer, drift) in &mut layers {
+        let Some(mut drift) = drift else {
+            commands.entity(entity).insert(LayerDrift::default());
+            continue;
+        };
+        let [east, north] = layer
+            .wind_m_s
+            .map(|v| if v.is_finite() { f64::from(v) } else { 0.0 });
+        if dt != 0.0 && (east != 0.0 || north != 0.0) {
+            drift.offset_m[0] += east * dt;
+            drift.offset_m[1] += north * dt;
+        }
+    }
+}
+
+/// The sun as the clouds see it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CloudSun {
+    /// Unit vector toward the sun, world space.
+    pub direction: Vec3,
+    /// Illuminance of the light, RGB lux, as set on the `DirectionalLight` (colour ×
+    /// illuminance).
+    pub illuminance_rgb: [f64; 3],
+    /// Whether to attenuate the light through the air with [`light::sun_transmittance_rgb`]
+    /// (true when the scene has Bevy's `Atmosphere`, which expects sunlight above the air).
+    pub through_atmosphere: bool,
+}
+
+/// Night-sky radiance (airglow and starlight), cd/m², so clouds at night are very dark but
+/// neither black nor noise (about 10⁻⁴ cd/m² for a moonless sky; Leinert et al. 1998).
+const NIGHT_SKY_RADIANCE: [f64; 3] = [0.6e-4, 0.8e-4, 1.2e-4];
+/// Albedo of the ground that lights cloud bases from below.
+const GROUND_ALBEDO: f64 = 0.2;
+
+/// The march inputs for one camera: f64 settings and the visible layers, from the same numbers
+/// the CPU reference renders with.
+///
+/// `camera` is the camera's world transform, `pixel_angle_rad` the angle one pixel subtends,
+/// `layers` each layer with its wind drift. Invisible layers ([`CloudLayer::is_visible`]) are
+/// left out.
+pub fn march_inputs<'a>(
+    settings: &VolumetricClouds,
+    camera: &GlobalTransform,
+    pixel_angle_rad: f64,
+    sun: Option<&CloudSun>,
+    layers: impl IntoIterator<Item = (&'a CloudLayer, Option<&'a LayerDrift>)>,
+    frame_index: u32,
+) -> (MarchSettings, Vec<MarchLayer>) {
+    let radius = f64::from(settings.planet_radius_m.max(1.0));
+    let position = camera.translation().as_dvec3();
+    let centre = DVec3::new(0.0, f64::from(settings.ground_height_m) - radius, 0.0);
+    let from_centre = position - centre;
+    let distance = from_centre.length();
+    let up = if distance > 0.0 {
+        from_centre / distance
+    } else {
+        DVec3::Y
+    };
+
+    let march_layers: Vec<MarchLayer> = layers
+        .into_iter()
+        .map(|(layer, drift)| (layer.sanitized(), drift.copied().unwrap_or_default()))
+        .filter(|(layer, _)| layer.is_visible())
+        .map(|(layer, drift)| march_layer(settings, &layer, &drift, position))
+        .collect();
+
+    let mut march = MarchSettings {
+        planet_radius_m: radius,
+        camera_altitude_m: distance - radius,
+        camera_up: up.to_array(),
+        primary_steps: settings.primary_steps,
+        light_steps: settings.light_steps,
+        step_growth: f64::from(settings.step_growth.max(0.0)),
+        transmittance_cutoff: f64::from(settings.transmittance_cutoff.clamp(0.0, 1.0)),
+        octaves: settings.multiple_scattering_octaves,
+        phase_g_forward: f64::from(settings.phase_g_forward),
+        phase_g_back: f64::from(settings.phase_g_back),
+        phase_blend: f64::from(settings.phase_blend.clamp(0.0, 1.0)),
+        pixel_angle_rad,
+        jitter: settings.jitter,
+        frame_index,
+        ..default()
+    };
+
+    let lowest_base = march_layers
+        .iter()
+        .map(|l| l.base_m)
+        .fold(f64::INFINITY, f64::min);
+    let cloud_altitude_asl = f64::from(settings.ground_height_m) + lowest_base.max(0.0);
+    match sun {
+        Some(sun) if sun.direction.is_finite() && sun.direction.length_squared() > 0.0 => {
+            let direction = sun.direction.as_dvec3().normalize();
+            let elevation_deg = direction.dot(up).clamp(-1.0, 1.0).asin().to_degrees();
+            let transmittance = if sun.through_atmosphere {
+                light::sun_transmittance_rgb(elevation_deg, cloud_altitude_asl)
+            } else {
+                [1.0; 3]
+            };
+            let visible = crate::sky::sun_visibility(elevation_deg) as f64;
+            march.sun_direction = direction.to_array();
+            march.sun_illuminance =
+                std::array::from_fn(|c| sun.illuminance_rgb[c] * transmittance[c] * visible);
+            let sky =
+                light::sky_radiance_rgb(sun.illuminance_rgb, elevation_deg, cloud_altitude_asl);
+            let sin_h = elevation_deg.to_radians().sin().max(0.0);
+            march.ambient_top = std::array::from_fn(|c| sky[c] + NIGHT_SKY_RADIANCE[c]);
+            // Light reflected by the ground under the clouds: sun and sky on a Lambertian
+            // ground, radiance albedo · E / π.
+            march.ambient_bottom = std::array::from_fn(|c| {
+                GROUND_ALBEDO * (march.sun_illuminance[c] * sin_h + sky[c] * std::f64::consts::PI)
+                    / std::f64::consts::PI
+                    + NIGHT_SKY_RADIANCE[c]
+            });
+        }
+        _ => {
+            march.sun_direction = up.to_array();
+            march.sun_illuminance = [0.0; 3];
+            march.ambient_top = NIGHT_SKY_RADIANCE;
+            march.ambient_bottom = NIGHT_SKY_RADIANCE;
+        }
+    }
+    (march, march_layers)
+}
+
+/// One layer's march parameters, with noise offsets from the camera position plus wind drift,
+/// wrapped in f64 by each noise period.
+fn march_layer(
+    settings: &VolumetricClouds,
+    layer: &CloudLayer,
+    drift: &LayerDrift,
+    camera: DVec3,
+) -> MarchLayer {
+    let mut march = MarchLayer {
+        base_m: f64::from(layer.base_m),
+        top_m: f64::from(layer.top_m),
+        coverage: f64::from(layer.coverage),
+        extinction: f64::from(layer.density),
+        weather_scale_m: f64::from(layer.weather_map_scale_m),
+        shape_scale_m: f64::from(settings.shape_scale_m),
+        detail_scale_m: f64::from(settings.detail_scale_m),
+        detail_erosion: f64::from(settings.detail_erosion),
+        shape_strength: f64::from(layer.shape_noise.clamp(0.0, 1.0)),
+        precipitation: f64::from(layer.precipitation.clamp(0.0, 1.0)),
+        ..default()
+    };
+    // Noise axes are world +X (east) and +Z (south) at the camera; drift is [east, north] and
+    // world drift is (east, −north). A look-up at `x − drift` shows the pattern carried to `x`,
+    // so the origin is the camera minus the drift.
+    march.set_noise_origin([camera.x - drift.offset_m[0], camera.z + drift.offset_m[1]]);
+    let [east, north] = layer.wind_m_s;
+    let wind = Vec2::new(east, -north);
+    // Tops lean downwind: the look-up at height z goes upwind by skew · z.
+    let skew = if wind.length_squared() > 0.0 && layer.skew.is_finite() {
+        -wind.normalize() * layer.skew
+    } else {
+        Vec2::ZERO
+    };
+    march.skew = [f64::from(skew.x), f64::from(skew.y)];
+    // The profile curve, sampled at evenly spaced heights including both ends.
+    let last = (MAX_PROFILE_POINTS - 1) as f32;
+    let points: Vec<[f64; 2]> = (0..MAX_PROFILE_POINTS)
+        .map(|i| {
+            let h = i as f32 / last;
+            [f64::from(h), f64::from(layer.profile.evaluate(h))]
+        })
+        .collect();
+    march.set_profile(&points);
+    march
+}
+
+/// Per-view uniforms, laid out as `CloudUniforms` in `clouds.wgsl` (160 bytes).
+#[derive(ShaderType, Clone, Debug, Default)]
+pub struct GpuCloudUniforms {
+    planet_radius_m: f32,
+    camera_altitude_m: f32,
+    pixel_angle_rad: f32,
+    step_growth: f32,
+    primary_steps: u32,
+    light_steps: u32,
+    octaves: u32,
+    layer_count: u32,
+    transmittance_cutoff: f32,
+    ms_attenuation: f32,
+    ms_contribution: f32,
+    ms_eccentricity: f32,
+    phase_g_forward: f32,
+    phase_g_back: f32,
+    phase_blend: f32,
+    jitter: u32,
+    frame_index: u32,
+    pad_a: u32,
+    pad_b: u32,
+    pad_c: u32,
+    camera_up: Vec4,
+    sun_direction: Vec4,
+    sun_illuminance: Vec4,
+    ambient_top: Vec4,
+    ambient_bottom: Vec4,
+}
+
+fn vec4(xyz: [f64; 3]) -> Vec4 {
+    Vec4::new(xyz[0] as f32, xyz[1] as f32, xyz[2] as f32, 0.0)
+}
+
+impl GpuCloudUniforms {
+    /// The uniforms for `settings` with `layer_count` layers in the storage buffer.
+    pub fn new(settings: &MarchSettings, layer_count: u32) -> Self {
+        Self {
+            planet_radius_m: settings.planet_radius_m as f32,
+            camera_altitude_m: settings.camera_altitude_m as f32,
+            pixel_angle_rad: settings.pixel_angle_rad as f32,
+            step_growth: settings.step_growth as f32,
+            primary_steps: settings.primary_steps,
+            light_steps: settings.light_steps,
+            octaves: settings.octaves,
+            layer_count,
+            transmittance_cutoff: settings.transmittance_cutoff as f32,
+            ms_attenuation: settings.ms_attenuation as f32,
+            ms_contribution: settings.ms_contribution as f32,
+            ms_eccentricity: settings.ms_eccentricity as f32,
+            phase_g_forward: settings.phase_g_forward as f32,
+            phase_g_back: settings.phase_g_back as f32,
+            phase_blend: settings.phase_blend as f32,
+            jitter: u32::from(settings.jitter),
+            frame_index: settings.frame_index,
+            pad_a: 0,
+            pad_b: 0,
+            pad_c: 0,
+            camera_up: vec4(settings.camera_up),
+            sun_direction: vec4(settings.sun_direction),
+            sun_illuminance: vec4(settings.sun_illuminance),
+            ambient_top: vec4(settings.ambient_top),
+            ambient_bottom: vec4(settings.ambient_bottom),
+        }
+    }
+}
+
+/// One layer, laid out as `CloudLayerGpu` in `clouds.wgsl` (144 bytes).
+#[derive(ShaderType, Clone, Debug, Default)]
+pub struct GpuCloudLayer {
+    base_m: f32,
+    top_m: f32,
+    coverage: f32,
+    extinction: f32,
+    weather_scale_m: f32,
+    shape_scale_m: f32,
+    detail_scale_m: f32,
+    detail_erosion: f32,
+    shape_strength: f32,
+    precipitation: f32,
+    profile_count: u32,
+    pad: u32,
+    weather_offset_m: Vec4,
+    noise_offset_m: Vec4,
+    profile: [Vec4; 4],
+}
+
+impl From<&MarchLayer> for GpuCloudLayer {
+    fn from(layer: &MarchLayer) -> Self {
+        let p = |i: usize| layer.profile[i].map(|v| v as f32);
+        let pair = |i: usize| {
+            let (a, b) = (p(2 * i), p(2 * i + 1));
+            Vec4::new(a[0], a[1], b[0], b[1])
+        };
+        Self {
+            base_m: layer.base_m as f32,
+            top_m: layer.top_m as f32,
+            coverage: layer.coverage as f32,
+            extinction: layer.extinction as f32,
+            weather_scale_m: layer.weather_scale_m as f32,
+            shape_scale_m: layer.shape_scale_m as f32,
+            detail_scale_m: layer.detail_scale_m as f32,
+            detail_erosion: layer.detail_erosion as f32,
+            shape_strength: layer.shape_strength as f32,
+            precipitation: layer.precipitation as f32,
+            profile_count: layer.profile_points,
+            pad: 0,
+            weather_offset_m: Vec4::new(
+                layer.weather_offset_m[0] as f32,
+                layer.weather_offset_m[1] as f32,
+                layer.skew[0] as f32,
+                layer.skew[1] as f32,
+            ),
+            noise_offset_m: Vec4::new(
+                layer.shape_offset_m[0] as f32,
+                layer.shape_offset_m[1] as f32,
+                layer.detail_offset_m[0] as f32,
+                layer.detail_offset_m[1] as f32,
+            ),
+            profile: std::array::from_fn(pair),
+        }
+    }
+}
+
+/// The clouds of one view, extracted each frame; absent when the view has no visible layer.
+#[derive(Component, Clone, Debug)]
+pub struct ExtractedCloudView {
+    /// The march settings (f64, as the CPU reference uses them).
+    pub settings: MarchSettings,
+    /// The visible layers.
+    pub layers: Vec<MarchLayer>,
+}
+
+/// How many times the march pass ran, for diagnostics and tests (render world).
+#[derive(Resource, Debug, Default, Clone, Copy)]
+pub struct CloudPassStats {
+    /// Views marched since start-up.
+    pub views_marched: u64,
+}
+
+fn extract_cloud_views(
+    mut commands: Commands,
+    cameras: Extract<
+        Query<(
+            RenderEntity,
+            &Camera,
+            &VolumetricClouds,
+            &GlobalTransform,
+            &Projection,
+        )>,
+    >,
+    layers: Extract<Query<(&CloudLayer, Option<&LayerDrift>)>>,
+    lights: Extract<Query<(&DirectionalLight, &GlobalTransform, Has<Sun>)>>,
+    atmospheres: Extract<Query<(), With<Atmosphere>>>,
+    frame: Extract<Res<FrameCount>>,
+) {
+    // The light with `Sun` wins; otherwise the first directional light.
+    let sun = lights
+        .iter()
+        .max_by_key(|(_, _, is_sun)| *is_sun)
+        .map(|(light, transform, _)| {
+            let colour = light.color.to_linear();
+            let e = f64::from(light.illuminance);
+            CloudSun {
+                direction: -transform.forward().as_vec3(),
+                illuminance_rgb: [
+                    f64::from(colour.red) * e,
+                    f64::from(colour.green) * e,
+                    f64::from(colour.blue) * e,
+                ],
+                through_atmosphere: !atmospheres.is_empty(),
+            }
+        });
+    for (entity, camera, settings, transform, projection) in &cameras {
+        let mut entity_commands = commands.entity(entity);
+        let height = camera
+            .physical_viewport_size()
+            .map_or(1, |size| size.y.max(1));
+        let pixel_angle = match projection {
+            Projection::Perspective(p) => f64::from(p.fov) / f64::from(height),
+            // An orthographic or custom camera: one milliradian, the footprint of a 60° view
+            // over a thousand pixels.
+            _ => 1.0e-3,
+        };
+        let (march, march_layers) = march_inputs(
+            settings,
+            transform,
+            pixel_angle,
+            sun.as_ref(),
+            layers.iter(),
+            frame.0,
+        );
+        if !camera.is_active || march_layers.is_empty() {
+            entity_commands.remove::<ExtractedCloudView>();
+            continue;
+        }
+        entity_commands.insert(ExtractedCloudView {
+            settings: march,
+            layers: march_layers,
+        });
+    }
+}
+
+/// The uniform and layer buffers of one view, written each frame.
+#[derive(Component)]
+struct CloudViewBuffers {
+    uniforms: UniformBuffer<GpuCloudUniforms>,
+    layers: StorageBuffer<Vec<GpuCloudLayer>>,
+}
+
+fn prepare_cloud_view_buffers(
+    mut commands: Commands,
+    views: Query<(Entity, &ExtractedCloudView)>,
+    device: Res<RenderDevice>,
+    queue: Res<RenderQueue>,
+) {
+    for (entity, view) in &views {
+        let gpu_layers: Vec<GpuCloudLayer> = view.layers.iter().map(GpuCloudLayer::from).collect();
+        let mut uniforms = UniformBuffer::from(GpuCloudUniforms::new(
+            &view.settings,
+            gpu_layers.len() as u32,
+        ));
+        uniforms.set_label(Some("cloud_march_uniforms"));
+        uniforms.write_buffer(&device, &queue);
+        let mut layers = StorageBuffer::from(gpu_layers);
+        layers.set_label(Some("cloud_march_layers"));
+        layers.write_buffer(&device, &queue);
+        commands
+            .entity(entity)
+            .insert(CloudViewBuffers { uniforms, layers });
+    }
+}
+
+/// Layouts, sampler and shader of the march pass.
+#[derive(Resource)]
+pub struct CloudMarchPipeline {
+    layout: BindGroupLayoutDescriptor,
+    layout_multisampled: BindGroupLayoutDescriptor,
+    fullscreen: FullscreenShader,
+    shader: Handle<Shader>,
+}
+
+/// What a march pipeline is specialised on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct CloudMarchPipelineKey {
+    /// Format of the view's main texture.
+    pub format: TextureFormat,
+    /// MSAA sample count of the view (the depth prepass is multisampled when > 1).
+    pub samples: u32,
+}
+
+fn march_layout(label: &'static str, multisampled: bool) -> BindGroupLayoutDescriptor {
+    BindGroupLayoutDescriptor::new(
+        label,
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::FRAGMENT,
+            (
+                uniform_buffer::<ViewUniform>(true),
+                if multisampled {
+                    texture_depth_2d_multisampled()
+                } else {
+                    texture_depth_2d()
+                },
+                uniform_buffer::<GpuCloudUniforms>(false),
+                storage_buffer_read_only::<GpuCloudLayer>(false),
+                texture_3d(TextureSampleType::Float { filterable: true }),
+                texture_3d(TextureSampleType::Float { filterable: true }),
+                texture_2d(TextureSampleType::Float { filterable: true }),
+                sampler(SamplerBindingType::Filtering),
+            ),
+        ),
+    )
+}
+
+fn init_cloud_march_pipeline(
+    mut commands: Commands,
+    asset_server: Res<AssetServer>,
+    fullscreen: Res<FullscreenShader>,
+) {
+    commands.insert_resource(CloudMarchPipeline {
+        layout: march_layout("cloud_march_layout", false),
+        layout_multisampled: march_layout("cloud_march_layout_multisampled", true),
+        fullscreen: fullscreen.clone(),
+        shader: load_embedded_asset!(asset_server.as_ref(), "march.wgsl"),
+    });
+}
+
+impl SpecializedRenderPipeline for CloudMarchPipeline {
+    type Key = CloudMarchPipelineKey;
+
+    fn specialize(&self, key: Self::Key) -> RenderPipelineDescriptor {
+        let multisampled = key.samples > 1;
+        let mut shader_defs = Vec::new();
+        if multisampled {
+            shader_defs.push("MULTISAMPLED".into());
+        }
+        RenderPipelineDescriptor {
+            label: Some(Cow::Borrowed("cloud_march_pipeline")),
+            layout: vec![if multisampled {
+                self.layout_multisampled.clone()
+            } else {
+                self.layout.clone()
+            }],
+            vertex: self.fullscreen.to_vertex_state(),
+            fragment: Some(FragmentState {
+                shader: self.shader.clone(),
+                shader_defs,
+                entry_point: Some(Cow::Borrowed("fragment")),
+                targets: vec![Some(ColorTargetState {
+                    format: key.format,
+                    // scene · T + L: the shader returns (L, T).
+                    blend: Some(BlendState {
+                        color: BlendComponent {
+                            src_factor: BlendFactor::One,
+                            dst_factor: BlendFactor::SrcAlpha,
+                            operation: BlendOperation::Add,
+                        },
+                        alpha: BlendComponent {
+                            src_factor: BlendFactor::Zero,
+                            dst_factor: BlendFactor::One,
+                            operation: BlendOperation::Add,
+                        },
+                    }),
+                    write_mask: ColorWrites::ALL,
+                })],
+            }),
+            multisample: MultisampleState {
+                count: key.samples,
+                ..default()
+            },
+            ..default()
+        }
+    }
+}
+
+/// The specialised pipeline of a view.
+#[derive(Component)]
+pub struct CloudMarchPipelineId(pub CachedRenderPipelineId);
+
+fn prepare_cloud_march_pipelines(
+    mut commands: Commands,
+    pipeline_cache: Res<PipelineCache>,
+    mut pipelines: ResMut<SpecializedRenderPipelines<CloudMarchPipeline>>,
+    pipeline: Option<Res<CloudMarchPipeline>>,
+    views: Query<(Entity, &ViewTarget, &Msaa), With<ExtractedCloudView>>,
+) {
+    let Some(pipeline) = pipeline else {
+        return;
+    };
+    for (entity, target, msaa) in &views {
+        let id = pipelines.specialize(
+            &pipeline_cache,
+            &pipeline,
+            CloudMarchPipelineKey {
+                format: target.main_texture_format(),
+                samples: msaa.samples(),
+            },
+        );
+        commands.entity(entity).insert(CloudMarchPipelineId(id));
+    }
+}
+
+type MarchViewQuery = (
+    &'static ViewTarget,
+    &'static ViewPrepassTextures,
+    &'static ViewUniformOffset,
+    &'static CloudViewBuffers,
+    &'static CloudMarchPipelineId,
+    &'static Msaa,
+);
+
+fn march_cloud_layers(
+    view: ViewQuery<MarchViewQuery, With<ExtractedCloudView>>,
+    pipeline: Option<Res<CloudMarchPipeline>>,
+    noise: Option<Res<CloudNoiseTextures>>,
+    view_uniforms: Res<ViewUniforms>,
+    pipeline_cache: Res<PipelineCache>,
+    mut stats: ResMut<CloudPassStats>,
+    mut ctx: RenderContext,
+) {
+    let (target, prepass, view_offset, buffers, pipeline_id, msaa): QueryItem<MarchViewQuery> =
+        view.into_inner();
+    let (Some(pipeline), Some(noise), Some(view_binding), Some(depth), Some(render_pipeline)) = (
+        pipeline,
+        noise,
+        view_uniforms.uniforms.binding(),
+        prepass.depth_view(),
+        pipeline_cache.get_render_pipeline(pipeline_id.0),
+    ) else {
+        return;
+    };
+    let (Some(uniforms), Some(layers)) = (buffers.uniforms.binding(), buffers.layers.binding())
+    else {
+        return;
+    };
+    let layout = if msaa.samples() > 1 {
+        &pipeline.layout_multisampled
+    } else {
+        &pipeline.layout
+    };
+    let bind_group = ctx.render_device().create_bind_group(
+        "cloud_march_bind_group",
+        &pipeline_cache.get_bind_group_layout(layout),
+        &BindGroupEntries::sequential((
+            view_binding,
+            depth,
+            uniforms,
+            layers,
+            &noise.base.view,
+            &noise.detail.view,
+            &noise.weather.view,
+            &noise.sampler,
+        )),
+    );
+
+    let diagnostics = ctx.diagnostic_recorder();
+    let diagnostics = diagnostics.as_deref();
+    let time_span = diagnostics.time_span(ctx.command_encoder(), "cloud_march");
+    ctx.command_encoder().push_debug_group("cloud_march");
+    {
+        let mut pass = ctx
+            .command_encoder()
+            .begin_render_pass(&RenderPassDescriptor {
+                label: Some("cloud_march"),
+                color_attachments: &[Some(target.get_color_attachment())],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+        pass.set_pipeline(render_pipeline);
+        pass.set_bind_group(0, &bind_group, &[view_offset.offset]);
+        pass.draw(0..3, 0..1);
+    }
+    ctx.command_encoder().pop_debug_group();
+    time_span.end(ctx.command_encoder());
+    stats.views_marched += 1;
+}
