@@ -25,6 +25,7 @@ pub mod layers;
 pub mod reference;
 pub mod render;
 pub mod sky;
+pub mod terrain;
 pub mod weather;
 
 /// Everything a game needs to add clouds, in one import.

@@ -114,29 +114,35 @@ pub fn f16_to_f32(bits: u16) -> f32 {
 
 impl Headless {
     /// Builds the app, lets `setup` add plugins and systems, and creates a `W×H` target image of
-    /// `format` (`Rgba16Float` for linear values; the camera then needs `Tonemapping::None` to
-    /// keep them linear).
+    /// `format`. Apps take turns on the GPU: this waits until no other `Headless` is alive, so
+    /// drop one before making the next on the same thread. Use `Rgba16Float` for linear values
+    /// (the camera then needs `Tonemapping::None` to keep them linear).
     pub fn new(size: UVec2, format: TextureFormat, setup: impl FnOnce(&mut App)) -> Self {
         let gpu = GPU.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
         let mut app = App::new();
-        app.add_plugins(
-            DefaultPlugins
-                .set(WindowPlugin {
-                    primary_window: None,
-                    exit_condition: ExitCondition::DontExit,
-                    ..default()
-                })
-                .set(RenderPlugin {
-                    synchronous_pipeline_compilation: true,
-                    ..default()
-                })
-                .disable::<WinitPlugin>()
-                .disable::<PipelinedRenderingPlugin>()
-                .set(bevy::log::LogPlugin {
-                    level: bevy::log::Level::WARN,
-                    ..default()
-                }),
-        );
+        // The global log subscriber can be set once per process; later apps go without.
+        static LOGGING: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+        let first = !LOGGING.swap(true, std::sync::atomic::Ordering::SeqCst);
+        let plugins = DefaultPlugins
+            .set(WindowPlugin {
+                primary_window: None,
+                exit_condition: ExitCondition::DontExit,
+                ..default()
+            })
+            .set(RenderPlugin {
+                synchronous_pipeline_compilation: true,
+                ..default()
+            })
+            .disable::<WinitPlugin>()
+            .disable::<PipelinedRenderingPlugin>();
+        app.add_plugins(if first {
+            plugins.set(bevy::log::LogPlugin {
+                level: bevy::log::Level::WARN,
+                ..default()
+            })
+        } else {
+            plugins.disable::<bevy::log::LogPlugin>()
+        });
         let target = app
             .world_mut()
             .resource_mut::<Assets<Image>>()

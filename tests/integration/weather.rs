@@ -71,7 +71,7 @@ fn replacing_a_forecast_file_updates_the_weather_and_bad_files_keep_the_last_goo
             watch_for_changes_override: Some(true),
             ..default()
         },
-        CloudscapePlugin.build().disable::<CloudNoisePlugin>(),
+        CloudscapePlugin,
     ))
     .insert_resource(SceneClock::at("2021-05-04T10:00:00Z".parse().unwrap()));
     app.finish();

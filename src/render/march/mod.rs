@@ -66,8 +66,6 @@ pub struct CloudMarchPlugin;
 
 impl Plugin for CloudMarchPlugin {
     fn build(&self, app: &mut App) {
-        load_shader_library!(app, "clouds.wgsl");
-        embedded_asset!(app, "march.wgsl");
         app.register_type::<VolumetricClouds>()
             .register_type::<LayerDrift>()
             .add_systems(
@@ -76,10 +74,13 @@ impl Plugin for CloudMarchPlugin {
                     .after(CloudscapeSystems::Layers)
                     .before(CloudscapeSystems::Sun),
             );
-        let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
+        // Without a renderer (a server, a test of the weather alone) the layers still drift.
+        if app.get_sub_app(RenderApp).is_none() {
             return;
-        };
-        render_app
+        }
+        load_shader_library!(app, "clouds.wgsl");
+        embedded_asset!(app, "march.wgsl");
+        app.sub_app_mut(RenderApp)
             .init_resource::<CloudPassStats>()
             .add_systems(ExtractSchedule, extract_cloud_views);
     }
