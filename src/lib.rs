@@ -95,3 +95,8 @@ impl Plugin for SchedulePlugin {
         );
     }
 }
+
+/// Compiles the code blocks of `README.md` as doctests, so the quick start cannot rot.
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;

@@ -6,6 +6,7 @@
 )]
 
 pub mod headless;
+pub mod scenes;
 
 use std::path::PathBuf;
 
@@ -42,14 +43,30 @@ impl ExampleArgs {
     /// Parses `--headless`, `--out PATH`, `--frames N`, `--width W` and `--height H` from the
     /// process arguments. Unknown arguments are an error, printed with the usage line.
     pub fn from_env(example: &str) -> Result<Self, String> {
+        Self::parse(example, std::env::args().skip(1), "", |_, _| Ok(false))
+    }
+
+    /// Parses the options of [`ExampleArgs::from_env`] from `arguments`, offering each argument to
+    /// `extra` first so an example can add its own: `extra` gets the argument and the arguments
+    /// after it (to take its value from) and returns `Ok(true)` when the argument was its own.
+    /// `extra_usage` is appended to the usage line of the error for an unknown argument.
+    pub fn parse(
+        example: &str,
+        arguments: impl IntoIterator<Item = String>,
+        extra_usage: &str,
+        mut extra: impl FnMut(&str, &mut dyn Iterator<Item = String>) -> Result<bool, String>,
+    ) -> Result<Self, String> {
         let mut args = Self {
             headless: false,
             out: PathBuf::from(format!("{example}.png")),
             frames: 8,
             size: UVec2::new(1280, 720),
         };
-        let mut it = std::env::args().skip(1);
+        let mut it = arguments.into_iter();
         while let Some(arg) = it.next() {
+            if extra(&arg, &mut it)? {
+                continue;
+            }
             let mut value = |name: &str| it.next().ok_or_else(|| format!("{name} needs a value"));
             match arg.as_str() {
                 "--headless" => args.headless = true,
@@ -60,7 +77,7 @@ impl ExampleArgs {
                 other => {
                     return Err(format!(
                         "unknown argument {other:?}\nusage: {example} [--headless] [--out PATH.png] \
-                         [--frames N] [--width W] [--height H]"
+                         [--frames N] [--width W] [--height H]{extra_usage}"
                     ));
                 }
             }
@@ -110,19 +127,71 @@ use bevy::app::PluginGroupBuilder;
 
 /// Makes the camera marked [`MainCamera`] render into an image and, after
 /// [`ExampleArgs::frames`] frames, writes that image to [`ExampleArgs::out`] and exits.
+///
+/// An example that needs more inserts [`HeadlessShots`] (a time-lapse: several images, with
+/// frames in between for the scene to change and settle) and holds [`HeadlessProgress::ready`]
+/// at false until its assets have loaded; it reads [`HeadlessProgress::shot`] to know which
+/// image the scene should show.
 pub struct HeadlessCapturePlugin;
 
 /// Marks the camera the headless capture reads.
 #[derive(Component)]
 pub struct MainCamera;
 
+/// How many images the headless capture writes. Default: one.
+#[derive(Resource, Debug, Clone)]
+pub struct HeadlessShots {
+    /// Images to write. One goes to [`ExampleArgs::out`]; more go into the folder
+    /// [`ExampleArgs::out`] as `frame_000.png`, `frame_001.png`, …
+    pub count: u32,
+    /// Frames between two shots, for the scene to settle after it changed (LUTs, layers).
+    pub settle_frames: u32,
+}
+
+impl Default for HeadlessShots {
+    fn default() -> Self {
+        Self {
+            count: 1,
+            settle_frames: 3,
+        }
+    }
+}
+
+/// Where the headless capture stands.
+#[derive(Resource, Debug)]
+pub struct HeadlessProgress {
+    /// While false the capture waits, and the warm-up frames are not counted: set it once the
+    /// scene is complete (e.g. its assets have loaded). Default true.
+    pub ready: bool,
+    /// The shot the scene should show now, counted from 0; it advances in `Last` on the frame
+    /// an image is taken, so the next frame can change the scene.
+    pub shot: u32,
+    frames: u32,
+    written: u32,
+}
+
+impl Default for HeadlessProgress {
+    fn default() -> Self {
+        Self {
+            ready: true,
+            shot: 0,
+            frames: 0,
+            written: 0,
+        }
+    }
+}
+
 #[derive(Resource)]
 struct CaptureTarget(Handle<Image>);
 
 impl Plugin for HeadlessCapturePlugin {
     fn build(&self, app: &mut App) {
-        app.add_systems(PostStartup, redirect_camera_to_image)
-            .add_systems(Update, capture_after_frames);
+        app.init_resource::<HeadlessShots>()
+            .init_resource::<HeadlessProgress>()
+            .add_systems(PostStartup, redirect_camera_to_image)
+            // In `Last`, after everything that changes the scene this frame, so the image shows
+            // the frame's final state.
+            .add_systems(Last, capture_after_frames);
     }
 }
 
@@ -146,18 +215,43 @@ fn redirect_camera_to_image(
 
 fn capture_after_frames(
     mut commands: Commands,
-    mut frame: Local<u32>,
     args: Res<ExampleArgs>,
+    shots: Res<HeadlessShots>,
+    mut progress: ResMut<HeadlessProgress>,
     target: Res<CaptureTarget>,
 ) {
-    *frame += 1;
-    if *frame != args.frames {
+    let count = shots.count.max(1);
+    if !progress.ready || progress.shot >= count {
         return;
     }
-    let out = args.out.clone();
+    progress.frames += 1;
+    let due = if progress.shot == 0 {
+        args.frames
+    } else {
+        shots.settle_frames.max(1)
+    };
+    if progress.frames < due {
+        return;
+    }
+    progress.frames = 0;
+    let out = if count == 1 {
+        args.out.clone()
+    } else {
+        if progress.shot == 0
+            && let Err(e) = std::fs::create_dir_all(&args.out)
+        {
+            error!("cannot create {}: {e}", args.out.display());
+            commands.write_message(AppExit::error());
+            return;
+        }
+        args.out.join(format!("frame_{:03}.png", progress.shot))
+    };
+    progress.shot += 1;
     commands.spawn(Screenshot::image(target.0.clone())).observe(
-        move |captured: On<ScreenshotCaptured>, mut exit: MessageWriter<AppExit>| {
-            let status = match captured
+        move |captured: On<ScreenshotCaptured>,
+              mut progress: ResMut<HeadlessProgress>,
+              mut exit: MessageWriter<AppExit>| {
+            match captured
                 .image
                 .clone()
                 .try_into_dynamic()
@@ -165,15 +259,17 @@ fn capture_after_frames(
                 .and_then(|img| img.to_rgb8().save(&out).map_err(|e| e.to_string()))
             {
                 Ok(()) => {
-                    info!("wrote {}", out.display());
-                    AppExit::Success
+                    progress.written += 1;
+                    info!("wrote {} ({}/{count})", out.display(), progress.written);
+                    if progress.written == count {
+                        exit.write(AppExit::Success);
+                    }
                 }
                 Err(e) => {
                     error!("cannot write {}: {e}", out.display());
-                    AppExit::error()
+                    exit.write(AppExit::error());
                 }
-            };
-            exit.write(status);
+            }
         },
     );
 }
@@ -212,7 +308,7 @@ pub fn sky_scene_sun_direction() -> Vec3 {
 }
 
 /// Spawns the sky scene: Bevy's `Atmosphere` for an Earth-sized planet, a sun (a
-/// `DirectionalLight` with the illuminance of sunlight above the atmosphere), and a 20 km ground
+/// `DirectionalLight` with the illuminance of sunlight above the atmosphere), and a 200 km ground
 /// plane at y = 0. The camera comes from [`sky_scene_camera`].
 pub fn spawn_sky_scene(
     mut commands: Commands,
@@ -231,7 +327,7 @@ pub fn spawn_sky_scene(
         Transform::default().looking_to(-sky_scene_sun_direction(), Vec3::Y),
     ));
     commands.spawn((
-        Mesh3d(meshes.add(Plane3d::default().mesh().size(20_000.0, 20_000.0))),
+        Mesh3d(meshes.add(Plane3d::default().mesh().size(200_000.0, 200_000.0))),
         MeshMaterial3d(materials.add(StandardMaterial {
             base_color: Color::srgb(0.32, 0.42, 0.22),
             perceptual_roughness: 0.9,

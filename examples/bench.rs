@@ -1,0 +1,329 @@
+//! Speed against error: renders fixed cloud scenes with every quality preset and with a
+//! converged reference, and reports the time and the error of each.
+//!
+//! ```text
+//! cargo run --release --example bench -- [--width W] [--height H] [--frames N] [--out DIR] [--no-jitter]
+//! ```
+//!
+//! Scenes: cumulus at noon, overcast stratus, sunset behind altocumulus, the camera inside a
+//! cumulus layer, and a grazing view to the horizon (`examples/common/scenes.rs`). Presets:
+//! `LOW`, `MEDIUM`, `HIGH`, `ULTRA`; the reference marches 512 steps per interval with 16 light
+//! steps, no jitter and no early exit, at full resolution.
+//!
+//! Outputs in `DIR` (default `bench/`):
+//! - `bench.csv`: `scene,preset,width,height,ms_per_frame,ref_ms_per_frame,rel_rmse,max_abs_err,nan_count`.
+//!   `ms_per_frame` is the cost of the cloud pass: the median frame time with the clouds minus
+//!   the median frame time of the same view with no visible layer (the pass then does not run),
+//!   so what the engine does anyway cancels out. Errors compare the linear luminance of the
+//!   composite `grey · T + L` over a mid-grey background with the reference's (relative RMSE:
+//!   `sqrt(mean(Δ²)) / mean(reference)`; max: largest `|Δ|`).
+//! - `bench.png`: error (relative RMSE, vertical, log scale 10⁻⁴ to 10) against time relative
+//!   to the reference (horizontal, log scale 10⁻³ to 1), one dot per scene and preset: LOW red,
+//!   MEDIUM yellow, HIGH green, ULTRA blue; grey lines at every decade.
+//! - `images/SCENE_PRESET.png`: each render beside the reference.
+//!
+//! On software Vulkan (lavapipe) the times are CPU times: compare the ratios, not the
+//! milliseconds.
+
+mod common;
+
+use std::{
+    path::PathBuf,
+    process::ExitCode,
+    time::{Duration, Instant},
+};
+
+use bevy::prelude::*;
+use bevy_cloudscape::prelude::*;
+use common::scenes::{CloudRig, Scene, luminance, save_strip, showcase_scenes};
+
+struct Args {
+    size: UVec2,
+    frames: u32,
+    out: PathBuf,
+    /// Turn the presets' ray jitter off, to separate its noise from the bias of fewer steps.
+    no_jitter: bool,
+}
+
+fn parse_args() -> Result<Args, String> {
+    let usage = "usage: bench [--width W] [--height H] [--frames N] [--out DIR] [--no-jitter]";
+    let mut args = Args {
+        size: UVec2::new(160, 90),
+        frames: 5,
+        out: PathBuf::from("bench"),
+        no_jitter: false,
+    };
+    let mut it = std::env::args().skip(1);
+    while let Some(arg) = it.next() {
+        let mut number = |name: &str| -> Result<u32, String> {
+            let text = it.next().ok_or(format!("{name} needs a value ({usage})"))?;
+            text.parse()
+                .ok()
+                .filter(|n| *n > 0)
+                .ok_or(format!("{name}: {text:?} is not a positive whole number"))
+        };
+        match arg.as_str() {
+            "--width" => args.size.x = number("--width")?,
+            "--height" => args.size.y = number("--height")?,
+            "--frames" => args.frames = number("--frames")?,
+            "--no-jitter" => args.no_jitter = true,
+            "--out" => {
+                args.out = it
+                    .next()
+                    .ok_or(format!("--out needs a folder ({usage})"))?
+                    .into();
+            }
+            other => return Err(format!("unknown argument {other:?} ({usage})")),
+        }
+    }
+    Ok(args)
+}
+
+/// The converged reference: many steps, no jitter, no early exit.
+fn reference_settings() -> VolumetricClouds {
+    VolumetricClouds {
+        quality: CloudQuality::Custom,
+        primary_steps: 512,
+        light_steps: 16,
+        transmittance_cutoff: 0.0,
+        jitter: false,
+        ..VolumetricClouds::ULTRA
+    }
+}
+
+fn presets() -> [(&'static str, VolumetricClouds, [u8; 3]); 4] {
+    [
+        ("LOW", VolumetricClouds::LOW, [230, 60, 50]),
+        ("MEDIUM", VolumetricClouds::MEDIUM, [230, 200, 40]),
+        ("HIGH", VolumetricClouds::HIGH, [60, 190, 80]),
+        ("ULTRA", VolumetricClouds::ULTRA, [70, 120, 230]),
+    ]
+}
+
+/// The five bench scenes: the showcase four and a grazing view along the horizon.
+fn bench_scenes() -> Vec<Scene> {
+    let mut scenes = showcase_scenes();
+    let mut grazing = showcase_scenes().remove(0);
+    grazing.name = "grazing_horizon";
+    grazing.camera = Transform::from_xyz(0.0, 2.0, 0.0)
+        .looking_to(Vec3::new(0.0, 1.5f32.to_radians().tan(), -1.0), Vec3::Y);
+    scenes.push(grazing);
+    scenes
+}
+
+/// Median of the wall time of `frames` frames.
+fn median_frame_time(rig: &mut CloudRig, frames: u32) -> Duration {
+    let mut times: Vec<Duration> = (0..frames)
+        .map(|_| {
+            let start = Instant::now();
+            rig.app.update();
+            start.elapsed()
+        })
+        .collect();
+    times.sort();
+    times[times.len() / 2]
+}
+
+/// The composite over a mid-grey background, and its linear luminance.
+const BACKGROUND: f32 = 0.25;
+
+struct Measured {
+    ms: f64,
+    composite: Vec<[f32; 3]>,
+    nan_count: usize,
+}
+
+fn measure(
+    rig: &mut CloudRig,
+    scene: &Scene,
+    settings: &VolumetricClouds,
+    frames: u32,
+) -> Measured {
+    let mut baseline_scene = Scene {
+        settings: settings.clone(),
+        layers: scene
+            .layers
+            .iter()
+            .map(|l| CloudLayer {
+                coverage: 0.0,
+                ..l.clone()
+            })
+            .collect(),
+        ..scene.clone()
+    };
+    rig.set_scene(&baseline_scene);
+    rig.app.run_frames(2);
+    let baseline = median_frame_time(rig, frames);
+
+    baseline_scene.layers.clone_from(&scene.layers);
+    rig.set_scene(&baseline_scene);
+    let (radiance, transmittance) = rig.render(2);
+    let with_clouds = median_frame_time(rig, frames);
+
+    let nan_count = radiance
+        .iter()
+        .zip(&transmittance)
+        .filter(|(l, t)| !(l.iter().all(|v| v.is_finite()) && t.is_finite()))
+        .count();
+    let composite = radiance
+        .iter()
+        .zip(&transmittance)
+        .map(|(l, t)| l.map(|v| v + BACKGROUND * t))
+        .collect();
+    Measured {
+        ms: (with_clouds.as_secs_f64() - baseline.as_secs_f64()).max(0.0) * 1e3,
+        composite,
+        nan_count,
+    }
+}
+
+/// (relative RMSE, largest absolute difference) of linear luminance.
+fn errors(image: &[[f32; 3]], reference: &[[f32; 3]]) -> (f64, f64) {
+    let n = reference.len() as f64;
+    let mean = reference.iter().map(luminance).sum::<f64>() / n;
+    let (mut sum, mut max) = (0.0, 0.0f64);
+    for (a, b) in image.iter().zip(reference) {
+        let d = luminance(a) - luminance(b);
+        sum += d * d;
+        max = max.max(d.abs());
+    }
+    ((sum / n).sqrt() / mean.max(f64::MIN_POSITIVE), max)
+}
+
+struct Row {
+    scene: &'static str,
+    preset: &'static str,
+    colour: [u8; 3],
+    ms: f64,
+    ref_ms: f64,
+    rel_rmse: f64,
+    max_abs: f64,
+    nan_count: usize,
+}
+
+fn plot(rows: &[Row], path: &std::path::Path) -> Result<(), String> {
+    // Log–log axes: time ratio 10⁻³–1 across, relative RMSE 10⁻⁴–10 up, grid lines at decades.
+    let (w, h, margin) = (640u32, 400u32, 30u32);
+    let (x_decades, y_decades) = ((-3.0f64, 0.0f64), (-4.0f64, 1.0f64));
+    let to_px = |ratio: f64, error: f64| {
+        let fx = (ratio.max(1e-12).log10() - x_decades.0) / (x_decades.1 - x_decades.0);
+        let fy = (error.max(1e-12).log10() - y_decades.0) / (y_decades.1 - y_decades.0);
+        let x = f64::from(margin) + fx.clamp(0.0, 1.0) * f64::from(w - 2 * margin);
+        let y = f64::from(h - margin) - fy.clamp(0.0, 1.0) * f64::from(h - 2 * margin);
+        (x as u32, y as u32)
+    };
+    let mut image = image::RgbImage::from_pixel(w, h, image::Rgb([255, 255, 255]));
+    let grey = image::Rgb([215, 215, 215]);
+    for decade in -3..=0 {
+        let (x, _) = to_px(10f64.powi(decade), 1.0);
+        for y in margin..=h - margin {
+            image.put_pixel(x, y, grey);
+        }
+    }
+    for decade in -4..=1 {
+        let (_, y) = to_px(1.0, 10f64.powi(decade));
+        for x in margin..=w - margin {
+            image.put_pixel(x, y, grey);
+        }
+    }
+    for row in rows.iter().filter(|r| r.preset != "REFERENCE") {
+        let (cx, cy) = to_px(row.ms / row.ref_ms.max(1e-9), row.rel_rmse);
+        for dy in -3i32..=3 {
+            for dx in -3i32..=3 {
+                if dx * dx + dy * dy <= 9 {
+                    let (x, y) = (cx as i32 + dx, cy as i32 + dy);
+                    if x >= 0 && y >= 0 && (x as u32) < w && (y as u32) < h {
+                        image.put_pixel(x as u32, y as u32, image::Rgb(row.colour));
+                    }
+                }
+            }
+        }
+    }
+    image
+        .save(path)
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
+fn run(args: &Args) -> Result<(), String> {
+    std::fs::create_dir_all(args.out.join("images"))
+        .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
+    let mut rig = CloudRig::new(args.size, Msaa::Off, default());
+    let mut rows = Vec::new();
+    for scene in bench_scenes() {
+        let reference = measure(&mut rig, &scene, &reference_settings(), args.frames);
+        eprintln!("{}: reference {:.1} ms", scene.name, reference.ms);
+        rows.push(Row {
+            scene: scene.name,
+            preset: "REFERENCE",
+            colour: [0, 0, 0],
+            ms: reference.ms,
+            ref_ms: reference.ms,
+            rel_rmse: 0.0,
+            max_abs: 0.0,
+            nan_count: reference.nan_count,
+        });
+        for (preset, mut settings, colour) in presets() {
+            settings.jitter &= !args.no_jitter;
+            let measured = measure(&mut rig, &scene, &settings, args.frames);
+            let (rel_rmse, max_abs) = errors(&measured.composite, &reference.composite);
+            eprintln!(
+                "{}: {preset} {:.1} ms ({:.1} % of the reference), relative RMSE {:.2} %",
+                scene.name,
+                measured.ms,
+                100.0 * measured.ms / reference.ms.max(1e-9),
+                100.0 * rel_rmse
+            );
+            save_strip(
+                &args
+                    .out
+                    .join("images")
+                    .join(format!("{}_{preset}.png", scene.name)),
+                args.size,
+                &[&measured.composite, &reference.composite],
+            );
+            rows.push(Row {
+                scene: scene.name,
+                preset,
+                colour,
+                ms: measured.ms,
+                ref_ms: reference.ms,
+                rel_rmse,
+                max_abs,
+                nan_count: measured.nan_count,
+            });
+        }
+    }
+    let mut csv = String::from(
+        "scene,preset,width,height,ms_per_frame,ref_ms_per_frame,rel_rmse,max_abs_err,nan_count\n",
+    );
+    for r in &rows {
+        csv.push_str(&format!(
+            "{},{},{},{},{:.3},{:.3},{:.5},{:.5},{}\n",
+            r.scene,
+            r.preset,
+            args.size.x,
+            args.size.y,
+            r.ms,
+            r.ref_ms,
+            r.rel_rmse,
+            r.max_abs,
+            r.nan_count
+        ));
+    }
+    let csv_path = args.out.join("bench.csv");
+    std::fs::write(&csv_path, &csv)
+        .map_err(|e| format!("cannot write {}: {e}", csv_path.display()))?;
+    plot(&rows, &args.out.join("bench.png"))?;
+    print!("{csv}");
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    match parse_args().and_then(|args| run(&args)) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("bench: {message}");
+            ExitCode::from(2)
+        }
+    }
+}

@@ -1,0 +1,347 @@
+//! Fixed cloud scenes and a rig that renders them headless, shared by the GPU tests and the
+//! `bench` example.
+//!
+//! The cloud pass composites `scene · T + L`. Rendering a view over a black and over a bright
+//! grey background (no sky, no geometry) recovers both: `L` from the black frame and `T` from the
+//! difference. [`CloudRig::reference`] marches the same rays on the CPU with the settings and
+//! layers the render world extracted.
+
+use bevy::{
+    camera::{Exposure, RenderTarget},
+    core_pipeline::tonemapping::Tonemapping,
+    prelude::*,
+    render::render_resource::TextureFormat,
+};
+use bevy_cloudscape::{
+    prelude::*,
+    reference::{
+        noise::NoiseRecipe,
+        render::{CloudTextures, march_clouds, ray_start_jitter},
+    },
+    render::march::{CloudPassStats, ExtractedCloudView},
+};
+
+use super::headless::Headless;
+
+/// A fixed scene: camera, sun, layers, march settings.
+#[derive(Clone)]
+pub struct Scene {
+    /// Name, for files and tables.
+    pub name: &'static str,
+    /// Camera transform.
+    pub camera: Transform,
+    /// Sun elevation and azimuth (clockwise from −Z, the view's north), degrees.
+    pub sun_deg: (f32, f32),
+    /// The cloud layers.
+    pub layers: Vec<CloudLayer>,
+    /// March settings.
+    pub settings: VolumetricClouds,
+}
+
+pub fn layer(kind: CloudKind, coverage: f32) -> CloudLayer {
+    CloudLayer {
+        coverage,
+        weather_driven: false,
+        ..CloudLayer::new(kind)
+    }
+}
+
+pub fn looking(from: Vec3, pitch_deg: f32, yaw_deg: f32) -> Transform {
+    let (pitch, yaw) = (pitch_deg.to_radians(), yaw_deg.to_radians());
+    let forward = Vec3::new(
+        yaw.sin() * pitch.cos(),
+        pitch.sin(),
+        -yaw.cos() * pitch.cos(),
+    );
+    Transform::from_translation(from).looking_to(forward, Vec3::Y)
+}
+
+pub fn sun_direction((elevation, azimuth): (f32, f32)) -> Vec3 {
+    let (el, az) = (elevation.to_radians(), azimuth.to_radians());
+    Vec3::new(az.sin() * el.cos(), el.sin(), -az.cos() * el.cos())
+}
+
+/// Deterministic settings: no jitter, so GPU and CPU sample the same points.
+pub fn settings(primary_steps: u32) -> VolumetricClouds {
+    VolumetricClouds {
+        primary_steps,
+        jitter: false,
+        ..VolumetricClouds::MEDIUM
+    }
+}
+
+pub fn showcase_scenes() -> Vec<Scene> {
+    vec![
+        Scene {
+            name: "cumulus_noon",
+            camera: looking(Vec3::new(0.0, 2.0, 0.0), 25.0, 0.0),
+            sun_deg: (60.0, 150.0),
+            layers: vec![layer(CloudKind::Cumulus, 0.5)],
+            settings: settings(64),
+        },
+        Scene {
+            name: "overcast_stratus",
+            camera: looking(Vec3::new(0.0, 2.0, 0.0), 20.0, 40.0),
+            sun_deg: (40.0, 200.0),
+            layers: vec![layer(CloudKind::Stratus, 1.0)],
+            settings: settings(64),
+        },
+        Scene {
+            name: "sunset_behind_clouds",
+            camera: looking(Vec3::new(0.0, 2.0, 0.0), 6.0, 0.0),
+            sun_deg: (4.0, 5.0),
+            layers: vec![layer(CloudKind::Altocumulus, 0.6)],
+            settings: settings(64),
+        },
+        Scene {
+            name: "inside_cumulus",
+            camera: looking(Vec3::new(0.0, 1_600.0, 0.0), 5.0, 30.0),
+            sun_deg: (45.0, 100.0),
+            layers: vec![layer(CloudKind::Cumulus, 0.6)],
+            settings: settings(64),
+        },
+    ]
+}
+
+/// The noise at test size: the CPU twin of 128³ is too slow for an unoptimised test build.
+pub fn small_recipe() -> NoiseRecipe {
+    NoiseRecipe {
+        base_size: 32,
+        detail_size: 16,
+        weather_size: 64,
+        ..default()
+    }
+}
+
+/// Marks the rig's camera.
+#[derive(Component)]
+pub struct TestCamera;
+
+/// One app for many scenes: the pipelines compile once.
+pub struct CloudRig {
+    /// The app.
+    pub app: Headless,
+    /// The camera entity.
+    pub camera: Entity,
+    /// The sun entity.
+    pub sun: Entity,
+    /// Per pixel, how far f16 rounding can move the `T` of the last [`CloudRig::render`].
+    pub t_tolerance: Vec<f32>,
+}
+
+/// Spacing of half-floats around `v`.
+pub fn f16_step(v: f32) -> f32 {
+    let v = v.abs().max(6.1e-5);
+    2f32.powi(v.log2().floor() as i32 - 10)
+}
+
+pub const EXPOSURE: Exposure = Exposure { ev100: 13.0 };
+
+impl CloudRig {
+    /// A rig rendering `size` pixels with `msaa`, over noise made from `noise`.
+    pub fn new(size: UVec2, msaa: Msaa, noise: NoiseRecipe) -> Self {
+        let mut app = Headless::new(size, TextureFormat::Rgba16Float, |app| {
+            app.add_plugins(CloudscapePlugin)
+                .insert_resource(CloudNoiseSettings(noise))
+                .insert_resource(SceneClock::at("2021-05-03T12:00:00Z".parse().unwrap()));
+        });
+        let target = app.target.clone();
+        let camera = app
+            .world()
+            .spawn((
+                Camera3d::default(),
+                Camera {
+                    clear_color: ClearColorConfig::Custom(Color::BLACK),
+                    ..default()
+                },
+                Projection::Perspective(PerspectiveProjection {
+                    fov: 60f32.to_radians(),
+                    ..default()
+                }),
+                RenderTarget::Image(target.into()),
+                VolumetricClouds::MEDIUM,
+                EXPOSURE,
+                Tonemapping::None,
+                msaa,
+                TestCamera,
+            ))
+            .id();
+        let sun = app
+            .world()
+            .spawn(DirectionalLight {
+                illuminance: 100_000.0,
+                ..default()
+            })
+            .id();
+        Self {
+            app,
+            camera,
+            sun,
+            t_tolerance: Vec::new(),
+        }
+    }
+
+    pub fn set_scene(&mut self, scene: &Scene) {
+        let world = self.app.world();
+        world
+            .entity_mut(self.camera)
+            .insert((scene.camera, scene.settings.clone()));
+        world
+            .entity_mut(self.sun)
+            .insert(Transform::default().looking_to(-sun_direction(scene.sun_deg), Vec3::Y));
+        let old: Vec<Entity> = world
+            .query_filtered::<Entity, With<CloudLayer>>()
+            .iter(world)
+            .collect();
+        for entity in old {
+            world.despawn(entity);
+        }
+        for layer in &scene.layers {
+            world.spawn(layer.clone());
+        }
+    }
+
+    pub fn set_background(&mut self, color: Color) {
+        self.app
+            .world()
+            .get_mut::<Camera>(self.camera)
+            .unwrap()
+            .clear_color = ClearColorConfig::Custom(color);
+    }
+
+    /// Renders over black and over a bright grey; returns per pixel (L · exposure, T) from the
+    /// GPU. The grey is bright so that `T` survives the f16 rounding of `grey · T + L`.
+    pub fn render(&mut self, frames: u32) -> (Vec<[f32; 3]>, Vec<f32>) {
+        const GREY: f32 = 256.0;
+        self.set_background(Color::BLACK);
+        self.app.run_frames(frames);
+        let black = self.app.read_target();
+        self.set_background(Color::linear_rgb(GREY, GREY, GREY));
+        self.app.run_frames(2);
+        let grey = self.app.read_target();
+        let radiance = black.rgba.iter().map(|p| [p[0], p[1], p[2]]).collect();
+        let transmittance = grey
+            .rgba
+            .iter()
+            .zip(&black.rgba)
+            .map(|(w, b)| (w[0] - b[0] + w[1] - b[1] + w[2] - b[2]) / (3.0 * GREY))
+            .collect();
+        // How far rounding to f16 (twice: the blend and the resolve or copy) can move the
+        // recovered T: two half-float steps of each frame's value, over the grey.
+        self.t_tolerance = grey
+            .rgba
+            .iter()
+            .zip(&black.rgba)
+            .map(|(w, b)| 2.0 * (f16_step(w[1]) + f16_step(b[1])) / GREY)
+            .collect();
+        (radiance, transmittance)
+    }
+
+    pub fn extracted(&mut self) -> ExtractedCloudView {
+        let world = self.app.render_world();
+        world
+            .query::<&ExtractedCloudView>()
+            .iter(world)
+            .next()
+            .expect("the view has visible layers")
+            .clone()
+    }
+
+    pub fn views_marched(&mut self) -> u64 {
+        self.app
+            .render_world()
+            .resource::<CloudPassStats>()
+            .views_marched
+    }
+
+    /// The CPU reference image for the current scene: (L·exposure, T) per pixel.
+    pub fn reference(&mut self, textures: &CloudTextures) -> (Vec<[f32; 3]>, Vec<f32>) {
+        let view = self.extracted();
+        let size = self.app.size;
+        let world = self.app.world();
+        let camera = world.get::<Camera>(self.camera).unwrap();
+        let world_from_clip = world
+            .get::<GlobalTransform>(self.camera)
+            .unwrap()
+            .to_matrix()
+            * camera.clip_from_view().inverse();
+        let position = world
+            .get::<GlobalTransform>(self.camera)
+            .unwrap()
+            .translation();
+        let exposure = f64::from(EXPOSURE.exposure());
+        let mut radiance = Vec::new();
+        let mut transmittance = Vec::new();
+        for y in 0..size.y {
+            for x in 0..size.x {
+                // The same ray as march.wgsl: through the pixel centre on the near plane.
+                let uv = (Vec2::new(x as f32, y as f32) + 0.5) / size.as_vec2();
+                let ndc = Vec2::new(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0);
+                let near = world_from_clip * Vec4::new(ndc.x, ndc.y, 1.0, 1.0);
+                let direction = (near.truncate() / near.w - position).normalize();
+                let pixel = [f64::from(x) + 0.5, f64::from(y) + 0.5];
+                let result = march_clouds(
+                    textures,
+                    &view.settings,
+                    &view.layers,
+                    view.settings.camera_altitude_m,
+                    view.settings.camera_up,
+                    direction.as_dvec3().to_array(),
+                    f64::INFINITY,
+                    ray_start_jitter(&view.settings, pixel),
+                );
+                radiance.push(result.radiance.map(|v| (v * exposure) as f32));
+                transmittance.push(result.transmittance as f32);
+            }
+        }
+        (radiance, transmittance)
+    }
+}
+
+pub fn luminance(rgb: &[f32; 3]) -> f64 {
+    f64::from(0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2])
+}
+
+/// Relative RMSE of linear luminance: `sqrt(mean((a − b)²)) / mean(b)`.
+pub fn relative_rmse(gpu: &[[f32; 3]], reference: &[[f32; 3]]) -> f64 {
+    let n = reference.len() as f64;
+    let mean = reference.iter().map(luminance).sum::<f64>() / n;
+    let mse = gpu
+        .iter()
+        .zip(reference)
+        .map(|(a, b)| (luminance(a) - luminance(b)).powi(2))
+        .sum::<f64>()
+        / n;
+    mse.sqrt() / mean
+}
+
+/// Writes linear RGB images side by side as one sRGB PNG.
+pub fn save_strip(path: &std::path::Path, size: UVec2, images: &[&[[f32; 3]]]) {
+    let scale = 1.0;
+    let width = size.x * images.len() as u32;
+    let mut bytes = Vec::new();
+    for y in 0..size.y {
+        for image in images {
+            for x in 0..size.x {
+                let p = image[(y * size.x + x) as usize];
+                bytes.extend(p.map(|v| (encode_srgb(v * scale) * 255.0 + 0.5) as u8));
+            }
+        }
+    }
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).unwrap();
+    }
+    image::RgbImage::from_raw(width, size.y, bytes)
+        .unwrap()
+        .save(path)
+        .unwrap();
+}
+
+pub fn encode_srgb(v: f32) -> f32 {
+    let v = v.clamp(0.0, 1.0);
+    if v <= 0.003_130_8 {
+        v * 12.92
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
+}
