@@ -17,9 +17,9 @@ use bevy::{
         pipelined_rendering::PipelinedRenderingPlugin,
         render_asset::RenderAssets,
         render_resource::{
-            BufferDescriptor, BufferUsages, CommandEncoderDescriptor, Extent3d, MapMode, Origin3d,
-            PollType, TexelCopyBufferInfo, TexelCopyBufferLayout, TexelCopyTextureInfo, Texture,
-            TextureAspect, TextureFormat,
+            Buffer, BufferDescriptor, BufferUsages, CommandEncoderDescriptor, Extent3d, MapMode,
+            Origin3d, PollType, TexelCopyBufferInfo, TexelCopyBufferLayout, TexelCopyTextureInfo,
+            Texture, TextureAspect, TextureFormat,
         },
         renderer::{RenderDevice, RenderQueue},
         texture::GpuImage,
@@ -249,6 +249,36 @@ impl Headless {
         drop(mapped);
         buffer.unmap();
         out
+    }
+
+    /// Copies `size` bytes of a buffer from `offset` back to the CPU. The buffer needs
+    /// `COPY_SRC` usage.
+    pub fn read_buffer(&mut self, buffer: &Buffer, offset: u64, size: u64) -> Vec<u8> {
+        let world = self.render_world();
+        let device = world.resource::<RenderDevice>();
+        let queue = world.resource::<RenderQueue>();
+        let staging = device.create_buffer(&BufferDescriptor {
+            label: Some("test buffer readback"),
+            size,
+            usage: BufferUsages::COPY_DST | BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        let mut encoder = device.create_command_encoder(&CommandEncoderDescriptor::default());
+        encoder.copy_buffer_to_buffer(buffer, offset, &staging, 0, size);
+        queue.submit([encoder.finish()]);
+        staging.slice(..).map_async(MapMode::Read, |result| {
+            result.expect("map readback buffer");
+        });
+        device
+            .wgpu_device()
+            .poll(PollType::Wait {
+                submission_index: None,
+                timeout: None,
+            })
+            .expect("device poll");
+        let bytes = staging.slice(..).get_mapped_range().to_vec();
+        staging.unmap();
+        bytes
     }
 
     /// Reads a GPU image (a render-world copy of a main-world `Image` asset).

@@ -16,3 +16,27 @@ fn f16_decoding_matches_known_values() {
     assert_eq!(f16_to_f32(0x0001), 2f32.powi(-24));
     assert!(f16_to_f32(0x7e00).is_nan());
 }
+
+#[test]
+fn buffers_read_back_as_written() {
+    use bevy::render::{
+        render_resource::{BufferInitDescriptor, BufferUsages},
+        renderer::RenderDevice,
+    };
+    let mut app = Headless::new(
+        bevy::math::UVec2::splat(2),
+        bevy::render::render_resource::TextureFormat::Rgba8UnormSrgb,
+        |_| {},
+    );
+    let data: Vec<u8> = (0..=255u8).cycle().take(1000).collect();
+    let buffer = app
+        .render_world()
+        .resource::<RenderDevice>()
+        .create_buffer_with_data(&BufferInitDescriptor {
+            label: Some("readback test"),
+            contents: &data,
+            usage: BufferUsages::COPY_SRC,
+        });
+    assert_eq!(app.read_buffer(&buffer, 0, 1000), data);
+    assert_eq!(app.read_buffer(&buffer, 256, 8), data[256..264]);
+}
