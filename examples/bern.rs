@@ -42,6 +42,8 @@
 //! | `--warmup N` | frames rendered before the first image | 8 |
 //! | `--photos DIR` | photos to compare with, see below | none |
 //! | `--photo-opacity X` | opacity of the photo overlay, 0–1 | 0.5 |
+//! | `--photo-wiper X` | fraction of the width, from the left, that shows the photo | 1 |
+//! | `--ev100 EV` | camera exposure | 14 (sunlit scenes; Bevy's atmosphere example uses 13) |
 //! | `--dem PATH` | elevation file (ESRI ASCII grid or `GeoTIFF`, WGS 84 degrees) | `assets/terrain/bern_globe30s.asc` |
 //!
 //! A bad flag exits with status 2 and a message. Without a display, run with `--headless`.
@@ -100,7 +102,7 @@ const NEAR_FORECAST: &str = "weather/bern.json";
 const DEFAULT_TIME: &str = "2021-05-03T14:00:00Z";
 /// Eye height above the ground, metres.
 const EYE_HEIGHT_M: f32 = 1.7;
-/// Vertical field of view, degrees: a normal lens (about 38 mm on full frame in 16:9).
+/// Vertical field of view, degrees: 79° across at 16:9, like a 21 mm lens on full frame.
 const FOV_DEG: f32 = 50.0;
 /// The views look slightly down, into the valley.
 const PITCH_DEG: f32 = -2.0;
@@ -111,12 +113,14 @@ const DEFAULT_EV100: f32 = 14.0;
 /// Frames between two time-lapse images, for the atmosphere LUTs to follow the sun.
 const SETTLE_FRAMES: u32 = 3;
 
-const EXTRA_USAGE: &str = " [--camera gurten|bantiger] [--time RFC3339] [--frames N --step 10m] \
-                           [--warmup N] [--photos DIR] [--photo-opacity 0..1] [--dem PATH] [--ev100 EV]";
+const USAGE: &str = "usage: bern [--camera gurten|bantiger] [--time RFC3339] [--headless] \
+                     [--out PATH] [--width W] [--height H] [--frames N --step 10m] [--warmup N] \
+                     [--photos DIR] [--photo-opacity 0..1] [--photo-wiper 0..1] [--dem PATH] \
+                     [--ev100 EV]";
 
 fn main() -> AppExit {
     if std::env::args().any(|arg| arg == "--help" || arg == "-h") {
-        println!("usage: bern [--headless] [--out PATH] [--width W] [--height H]{EXTRA_USAGE}");
+        println!("{USAGE}\n(the flags are explained at the top of examples/bern.rs)");
         return AppExit::Success;
     }
     let (args, options) = match parse_options(std::env::args().skip(1)) {
@@ -152,6 +156,7 @@ fn main() -> AppExit {
     .insert_resource(PhotoOverlay {
         visible: options.photos.is_some(),
         opacity: options.photo_opacity,
+        wiper: options.photo_wiper,
         ..default()
     })
     .init_resource::<UiCapturesKeyboard>()
@@ -210,6 +215,7 @@ struct BernOptions {
     step_s: i64,
     photos: Option<PathBuf>,
     photo_opacity: f32,
+    photo_wiper: f32,
     dem: PathBuf,
     /// Camera exposure, EV100.
     ev100: f32,
@@ -225,6 +231,7 @@ fn parse_options(
         step_s: 600,
         photos: None,
         photo_opacity: 0.5,
+        photo_wiper: 1.0,
         dem: FileAssetReader::get_base_path()
             .join("assets")
             .join(DEM_ASSET),
@@ -233,7 +240,7 @@ fn parse_options(
     let mut warmup = None;
     let mut out_given = false;
     // `--frames` counts time-lapse images here, so the warm-up count moves to `--warmup`.
-    let mut args = ExampleArgs::parse("bern", arguments, EXTRA_USAGE, |arg, rest| {
+    let mut args = ExampleArgs::parse("bern", arguments, Some(USAGE), |arg, rest| {
         let mut value = || rest.next().ok_or_else(|| format!("{arg} needs a value"));
         match arg {
             "--camera" => options.viewpoint = value()?.parse()?,
@@ -245,14 +252,8 @@ fn parse_options(
             "--step" => options.step_s = parse_duration_s(&value()?)?,
             "--warmup" => warmup = Some(parse_count(&value()?, "--warmup")?),
             "--photos" => options.photos = Some(PathBuf::from(value()?)),
-            "--photo-opacity" => {
-                let text = value()?;
-                options.photo_opacity = text
-                    .parse::<f32>()
-                    .ok()
-                    .filter(|x| (0.0..=1.0).contains(x))
-                    .ok_or_else(|| format!("--photo-opacity: {text:?} is not a number in 0–1"))?;
-            }
+            "--photo-opacity" => options.photo_opacity = parse_fraction(&value()?, arg)?,
+            "--photo-wiper" => options.photo_wiper = parse_fraction(&value()?, arg)?,
             "--dem" => options.dem = PathBuf::from(value()?),
             "--ev100" => {
                 let text = value()?;
@@ -283,6 +284,13 @@ fn parse_options(
         }
     }
     Ok((args, options))
+}
+
+fn parse_fraction(text: &str, name: &str) -> Result<f32, String> {
+    text.parse::<f32>()
+        .ok()
+        .filter(|x| (0.0..=1.0).contains(x))
+        .ok_or_else(|| format!("{name}: {text:?} is not a number from 0 to 1"))
 }
 
 fn parse_count(text: &str, name: &str) -> Result<u32, String> {
@@ -919,6 +927,8 @@ fn wait_for_forecasts(
 #[derive(Resource, Default)]
 struct Photos {
     by_view: [Vec<(UtcInstant, PathBuf)>; 2],
+    /// Where each view's photos are looked for.
+    folders: [PathBuf; 2],
     /// What was found, for the panel.
     summary: String,
 }
@@ -964,6 +974,7 @@ fn scan_photos(dir: &Path) -> Photos {
     let mut summary = Vec::new();
     for (index, viewpoint) in Viewpoint::ALL.into_iter().enumerate() {
         let folder = dir.join(viewpoint.key());
+        photos.folders[index].clone_from(&folder);
         let Ok(entries) = std::fs::read_dir(&folder) else {
             summary.push(format!("no folder {}", folder.display()));
             continue;
@@ -1089,7 +1100,12 @@ fn update_photo_overlay(
     let mut show = false;
     match nearest {
         None if photos.by_view.iter().all(Vec::is_empty) => status.clone_from(&photos.summary),
-        None => status = format!("no photos for the {} view", view.viewpoint.name()),
+        None => {
+            status = format!(
+                "no photos named like 2021-05-03T14-00.jpg in {}",
+                photos.folders[index].display()
+            );
+        }
         Some((time, path)) => {
             if overlay.shown.as_ref() != Some(path) {
                 overlay.shown = Some(path.clone());

@@ -43,17 +43,18 @@ impl ExampleArgs {
     /// Parses `--headless`, `--out PATH`, `--frames N`, `--width W` and `--height H` from the
     /// process arguments. Unknown arguments are an error, printed with the usage line.
     pub fn from_env(example: &str) -> Result<Self, String> {
-        Self::parse(example, std::env::args().skip(1), "", |_, _| Ok(false))
+        Self::parse(example, std::env::args().skip(1), None, |_, _| Ok(false))
     }
 
     /// Parses the options of [`ExampleArgs::from_env`] from `arguments`, offering each argument to
-    /// `extra` first so an example can add its own: `extra` gets the argument and the arguments
-    /// after it (to take its value from) and returns `Ok(true)` when the argument was its own.
-    /// `extra_usage` is appended to the usage line of the error for an unknown argument.
+    /// `extra` first so an example can add its own (or give one of these another meaning):
+    /// `extra` gets the argument and the arguments after it (to take its value from) and returns
+    /// `Ok(true)` when the argument was its own. `usage` replaces the common usage line in the
+    /// error for an unknown argument.
     pub fn parse(
         example: &str,
         arguments: impl IntoIterator<Item = String>,
-        extra_usage: &str,
+        usage: Option<&str>,
         mut extra: impl FnMut(&str, &mut dyn Iterator<Item = String>) -> Result<bool, String>,
     ) -> Result<Self, String> {
         let mut args = Self {
@@ -75,10 +76,16 @@ impl ExampleArgs {
                 "--width" => args.size.x = parse(&value("--width")?, "--width")?,
                 "--height" => args.size.y = parse(&value("--height")?, "--height")?,
                 other => {
-                    return Err(format!(
-                        "unknown argument {other:?}\nusage: {example} [--headless] [--out PATH.png] \
-                         [--frames N] [--width W] [--height H]{extra_usage}"
-                    ));
+                    let usage = usage.map_or_else(
+                        || {
+                            format!(
+                                "usage: {example} [--headless] [--out PATH.png] [--frames N] \
+                                 [--width W] [--height H]"
+                            )
+                        },
+                        str::to_owned,
+                    );
+                    return Err(format!("unknown argument {other:?}\n{usage}"));
                 }
             }
         }
