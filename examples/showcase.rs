@@ -15,7 +15,7 @@ use bevy::{camera::RenderTarget, prelude::*, render::render_resource::TextureFor
 use bevy_cloudscape::prelude::*;
 use common::{
     headless::Headless,
-    scenes::{Scene, showcase_scenes, sun_direction},
+    scenes::{Scene, showcase_scenes},
 };
 
 fn parse_args() -> Result<(UVec2, PathBuf), String> {
@@ -81,23 +81,7 @@ fn run(size: UVec2, out: &std::path::Path) -> Result<(), String> {
             .map_err(|e| e.to_string())?
     };
     for scene in scenes() {
-        let world = app.world();
-        world
-            .entity_mut(camera)
-            .insert((scene.camera, scene.settings.clone()));
-        world
-            .entity_mut(sun)
-            .insert(Transform::default().looking_to(-sun_direction(scene.sun_deg), Vec3::Y));
-        let old: Vec<Entity> = world
-            .query_filtered::<Entity, With<CloudLayer>>()
-            .iter(world)
-            .collect();
-        for entity in old {
-            world.despawn(entity);
-        }
-        for layer in &scene.layers {
-            world.spawn(layer.clone());
-        }
+        scene.apply(app.world(), camera, sun);
         app.run_frames(4);
         let pixels = app.read_target();
         let path = out.join(format!("{}.png", scene.name));

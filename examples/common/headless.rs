@@ -112,6 +112,25 @@ pub fn f16_to_f32(bits: u16) -> f32 {
     }
 }
 
+/// Blocks until the device has finished all submitted work.
+fn wait_for_gpu(device: &RenderDevice) {
+    device
+        .wgpu_device()
+        .poll(PollType::Wait {
+            submission_index: None,
+            timeout: None,
+        })
+        .expect("device poll");
+}
+
+/// Maps a `MAP_READ` buffer for reading and waits until it is mapped.
+fn map_blocking(device: &RenderDevice, buffer: &Buffer) {
+    buffer.slice(..).map_async(MapMode::Read, |result| {
+        result.expect("map readback buffer");
+    });
+    wait_for_gpu(device);
+}
+
 impl Headless {
     /// Builds the app, lets `setup` add plugins and systems, and creates a `W×H` target image of
     /// `format`. Apps take turns on the GPU: this waits until no other `Headless` is alive, so
@@ -175,14 +194,7 @@ impl Headless {
     /// Runs one frame and waits until the GPU has finished it.
     pub fn update(&mut self) {
         self.apps.update();
-        self.render_world()
-            .resource::<RenderDevice>()
-            .wgpu_device()
-            .poll(PollType::Wait {
-                submission_index: None,
-                timeout: None,
-            })
-            .expect("device poll");
+        wait_for_gpu(self.render_world().resource::<RenderDevice>());
     }
 
     /// Runs `frames` frames.
@@ -230,16 +242,7 @@ impl Headless {
             Extent3d { ..size },
         );
         queue.submit([encoder.finish()]);
-        buffer.slice(..).map_async(MapMode::Read, |result| {
-            result.expect("map readback buffer");
-        });
-        device
-            .wgpu_device()
-            .poll(PollType::Wait {
-                submission_index: None,
-                timeout: None,
-            })
-            .expect("device poll");
+        map_blocking(device, &buffer);
         let mapped = buffer.slice(..).get_mapped_range();
         let mut out = Vec::with_capacity((row_bytes * rows) as usize);
         for row in 0..rows {
@@ -266,16 +269,7 @@ impl Headless {
         let mut encoder = device.create_command_encoder(&CommandEncoderDescriptor::default());
         encoder.copy_buffer_to_buffer(buffer, offset, &staging, 0, size);
         queue.submit([encoder.finish()]);
-        staging.slice(..).map_async(MapMode::Read, |result| {
-            result.expect("map readback buffer");
-        });
-        device
-            .wgpu_device()
-            .poll(PollType::Wait {
-                submission_index: None,
-                timeout: None,
-            })
-            .expect("device poll");
+        map_blocking(device, &staging);
         let bytes = staging.slice(..).get_mapped_range().to_vec();
         staging.unmap();
         bytes

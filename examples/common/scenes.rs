@@ -23,6 +23,29 @@ use bevy_cloudscape::{
 
 use super::headless::Headless;
 
+impl Scene {
+    /// Puts the scene into `world`: moves `camera` and gives it the settings, aims the `sun`
+    /// light, and replaces every `CloudLayer` entity with the scene's layers.
+    pub fn apply(&self, world: &mut World, camera: Entity, sun: Entity) {
+        world
+            .entity_mut(camera)
+            .insert((self.camera, self.settings.clone()));
+        world
+            .entity_mut(sun)
+            .insert(Transform::default().looking_to(-sun_direction(self.sun_deg), Vec3::Y));
+        let old: Vec<Entity> = world
+            .query_filtered::<Entity, With<CloudLayer>>()
+            .iter(world)
+            .collect();
+        for entity in old {
+            world.despawn(entity);
+        }
+        for layer in &self.layers {
+            world.spawn(layer.clone());
+        }
+    }
+}
+
 /// A fixed scene: camera, sun, layers, march settings.
 #[derive(Clone)]
 pub struct Scene {
@@ -182,23 +205,7 @@ impl CloudRig {
     }
 
     pub fn set_scene(&mut self, scene: &Scene) {
-        let world = self.app.world();
-        world
-            .entity_mut(self.camera)
-            .insert((scene.camera, scene.settings.clone()));
-        world
-            .entity_mut(self.sun)
-            .insert(Transform::default().looking_to(-sun_direction(scene.sun_deg), Vec3::Y));
-        let old: Vec<Entity> = world
-            .query_filtered::<Entity, With<CloudLayer>>()
-            .iter(world)
-            .collect();
-        for entity in old {
-            world.despawn(entity);
-        }
-        for layer in &scene.layers {
-            world.spawn(layer.clone());
-        }
+        scene.apply(self.app.world(), self.camera, self.sun);
     }
 
     pub fn set_background(&mut self, color: Color) {
