@@ -13,7 +13,7 @@ use bevy::{
     app::{AppLabel, SubApps},
     prelude::*,
     render::{
-        RenderApp, RenderPlugin,
+        RenderApp,
         pipelined_rendering::PipelinedRenderingPlugin,
         render_asset::RenderAssets,
         render_resource::{
@@ -24,8 +24,6 @@ use bevy::{
         renderer::{RenderDevice, RenderQueue},
         texture::GpuImage,
     },
-    window::ExitCondition,
-    winit::WinitPlugin,
 };
 
 use super::render_target_image;
@@ -142,18 +140,7 @@ impl Headless {
         // The global log subscriber can be set once per process; later apps go without.
         static LOGGING: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
         let first = !LOGGING.swap(true, std::sync::atomic::Ordering::SeqCst);
-        let plugins = DefaultPlugins
-            .set(WindowPlugin {
-                primary_window: None,
-                exit_condition: ExitCondition::DontExit,
-                ..default()
-            })
-            .set(RenderPlugin {
-                synchronous_pipeline_compilation: true,
-                ..default()
-            })
-            .disable::<WinitPlugin>()
-            .disable::<PipelinedRenderingPlugin>();
+        let plugins = super::windowless_default_plugins().disable::<PipelinedRenderingPlugin>();
         app.add_plugins(if first {
             plugins.set(bevy::log::LogPlugin {
                 level: bevy::log::Level::WARN,

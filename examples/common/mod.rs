@@ -101,24 +101,29 @@ fn parse<T: std::str::FromStr>(text: &str, name: &str) -> Result<T, String> {
         .map_err(|_| format!("{name}: {text:?} is not a valid number"))
 }
 
+/// `DefaultPlugins` with no window, no winit and synchronous pipeline compilation: the base of
+/// every headless run (the examples' `--headless` and the test harness).
+pub fn windowless_default_plugins() -> PluginGroupBuilder {
+    DefaultPlugins
+        .set(WindowPlugin {
+            primary_window: None,
+            exit_condition: ExitCondition::DontExit,
+            ..default()
+        })
+        .set(RenderPlugin {
+            synchronous_pipeline_compilation: true,
+            ..default()
+        })
+        .disable::<WinitPlugin>()
+}
+
 /// `DefaultPlugins` set up for a window, or for a headless run that owns no window and compiles
 /// pipelines synchronously so the captured frame is complete.
 pub fn default_plugins(args: &ExampleArgs, title: &str) -> PluginGroupBuilder {
     if args.headless {
-        DefaultPlugins
-            .set(WindowPlugin {
-                primary_window: None,
-                exit_condition: ExitCondition::DontExit,
-                ..default()
-            })
-            .set(RenderPlugin {
-                synchronous_pipeline_compilation: true,
-                ..default()
-            })
-            .disable::<WinitPlugin>()
-            .add(bevy::app::ScheduleRunnerPlugin::run_loop(
-                std::time::Duration::ZERO,
-            ))
+        windowless_default_plugins().add(bevy::app::ScheduleRunnerPlugin::run_loop(
+            std::time::Duration::ZERO,
+        ))
     } else {
         DefaultPlugins.set(WindowPlugin {
             primary_window: Some(Window {
