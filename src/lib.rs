@@ -35,6 +35,7 @@ pub mod prelude {
         CloudQuality, VolumetricClouds,
         march::CloudMarchPlugin,
         noise::{CloudNoisePlugin, CloudNoiseSettings},
+        shadow::{CloudShadowPlugin, CloudShadows},
     };
     pub use crate::sky::{ClockMode, SceneClock, SkyPlugin, Sun};
     pub use crate::weather::{
@@ -61,6 +62,7 @@ impl PluginGroup for CloudscapePlugin {
             .add(sky::SkyPlugin)
             .add(render::noise::CloudNoisePlugin)
             .add(render::march::CloudMarchPlugin)
+            .add(render::shadow::CloudShadowPlugin)
     }
 }
 

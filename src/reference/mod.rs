@@ -11,6 +11,10 @@
 //!   the light march and the energy-conserving integrator — for one ray at a time, sampling the
 //!   same texel data as the GPU; also the CPU queries [`render::density_at`] and
 //!   [`render::transmittance_to_sun`]. GPU twin: `src/render/march/clouds.wgsl`.
+//! - [`shadow`]: the cloud shadow map — the transmittance of every layer along the sun line
+//!   through a ground point, and the texel layout of the map. GPU twin:
+//!   `src/render/shadow/shadow.wgsl` and `shadow_optical_depth` in `clouds.wgsl`.
 
 pub mod noise;
 pub mod render;
+pub mod shadow;

@@ -537,11 +537,11 @@ impl CloudTextures {
 // Small vector helpers (plain arrays: this module does not depend on Bevy)
 // ---------------------------------------------------------------------------------------------
 
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+pub(super) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+pub(super) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
@@ -549,15 +549,15 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     ]
 }
 
-fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
+pub(super) fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
     a.map(|c| c * s)
 }
 
-fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+pub(super) fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
 
-fn normalize(a: [f64; 3]) -> [f64; 3] {
+pub(super) fn normalize(a: [f64; 3]) -> [f64; 3] {
     let length = dot(a, a).sqrt();
     if length > 0.0 {
         scale(a, 1.0 / length)
@@ -1341,7 +1341,7 @@ pub fn march_clouds(
 // ---------------------------------------------------------------------------------------------
 
 /// Altitude above the ground of `position_m`, a point relative to the camera.
-fn altitude_of(settings: &MarchSettings, position_m: [f64; 3]) -> f64 {
+pub(super) fn altitude_of(settings: &MarchSettings, position_m: [f64; 3]) -> f64 {
     let distance = dot(position_m, position_m).sqrt();
     if distance == 0.0 {
         return settings.camera_altitude_m;

@@ -5,9 +5,12 @@
 //! - [`march`]: a fullscreen pass per camera with [`VolumetricClouds`] that ray-marches the
 //!   [`CloudLayer`](crate::layers::CloudLayer)s, stops at scene geometry and composites the clouds
 //!   over the scene in HDR.
+//! - [`shadow`]: a compute pass that fills the cloud shadow map along the sun each frame, which
+//!   Bevy's PBR lighting applies to the sun's direct light on every `StandardMaterial`.
 
 pub mod march;
 pub mod noise;
+pub mod shadow;
 
 use bevy::{camera::Hdr, core_pipeline::prepass::DepthPrepass, prelude::*};
 

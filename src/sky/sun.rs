@@ -68,8 +68,10 @@ pub(crate) fn place_sun(
         Vec3::Y
     };
     for (sun, mut transform, mut light) in &mut suns {
-        // A directional light shines along its forward (-Z) axis, away from the sun.
-        *transform = Transform::default().looking_to(-toward_sun, up);
+        // A directional light shines along its forward (-Z) axis, away from the sun. Only the
+        // rotation is set: translation and scale place the cloud-shadow texture
+        // (`render::shadow`) and do not affect the light.
+        transform.rotation = Transform::default().looking_to(-toward_sun, up).rotation;
         light.illuminance = sun.illuminance_lux * sun_visibility(solar.elevation_deg);
     }
 }

@@ -7,5 +7,6 @@ mod clouds;
 mod common;
 mod harness;
 mod noise;
+mod shadow;
 mod sky;
 mod weather;

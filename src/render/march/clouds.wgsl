@@ -772,3 +772,71 @@ fn march_clouds(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter:
     }
     return vec4<f32>(ray.radiance, ray.transmittance);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Cloud shadows (CPU twin: src/reference/shadow.rs)
+// ---------------------------------------------------------------------------------------------
+
+// Rust: the constant of the same name in reference/shadow.rs.
+const MAX_SHADOW_STEPS: u32 = 64u;
+
+// Altitude above the ground of a point relative to the camera. Rust: `altitude_of`.
+fn altitude_of(position_m: vec3<f32>) -> f32 {
+    let distance = length(position_m);
+    if distance == 0.0 {
+        return clouds.camera_altitude_m;
+    }
+    let mu = clamp(dot(position_m, clouds.camera_up.xyz) / distance, -1.0, 1.0);
+    return altitude_along_ray(clouds.camera_altitude_m, mu, distance, clouds.planet_radius_m);
+}
+
+// Optical depth of every layer along the sun line through `position_m` (relative to the
+// camera), from where the line meets the ground on the sun's side (its lowest point if it misses
+// the ground) up to space: `steps` midpoint samples per layer interval, full detail, mips for
+// `footprint_m`. Rust: `shadow_optical_depth` in reference/shadow.rs.
+fn shadow_optical_depth(position_m: vec3<f32>, steps: u32, footprint_m: f32) -> f32 {
+    let radius = clouds.planet_radius_m;
+    let sun = clouds.sun_direction.xyz;
+    let up = clouds.camera_up.xyz;
+    let altitude = altitude_of(position_m);
+    let mu = clamp(
+        ((radius + clouds.camera_altitude_m) * dot(sun, up) + dot(sun, position_m)) / (radius + altitude),
+        -1.0,
+        1.0,
+    );
+    // Light travels along -sun and reaches the far root first.
+    let ground = intersect_altitude_sphere(altitude, mu, radius, 0.0);
+    var start = ground.y;
+    if ground.x == NO_HIT && ground.y == NO_HIT {
+        start = -(radius + altitude) * mu;
+    }
+    let origin = position_m + sun * start;
+    let origin_altitude = altitude_along_ray(altitude, mu, start, radius);
+    let origin_mu = clamp(((radius + altitude) * mu + start) / (radius + origin_altitude), -1.0, 1.0);
+
+    let axes = horizontal_axes(up);
+    let n = clamp(steps, 1u, MAX_SHADOW_STEPS);
+    let count = cloud_layer_count();
+    var optical_depth = 0.0;
+    var t = 0.0;
+    for (var i = 0u; i <= 2u * count; i++) {
+        let interval = next_cloud_interval(origin_altitude, origin_mu, t, FAR_AWAY);
+        if !(interval.y > interval.x) || !(interval.y < FAR_AWAY) {
+            break;
+        }
+        let dt = (interval.y - interval.x) / f32(n);
+        for (var k = 0u; k < n; k++) {
+            let s = interval.x + (f32(k) + 0.5) * dt;
+            let point = origin + sun * s;
+            let point_altitude = altitude_along_ray(origin_altitude, origin_mu, s, radius);
+            let horizontal = vec2<f32>(dot(point, axes.x), dot(point, axes.z));
+            var extinction = 0.0;
+            for (var l = 0u; l < count; l++) {
+                extinction += layer_density(cloud_layers[l], horizontal, point_altitude, footprint_m, true);
+            }
+            optical_depth += extinction * dt;
+        }
+        t = interval.y;
+    }
+    return optical_depth;
+}

@@ -178,6 +178,32 @@ pub struct CloudSun {
     pub through_atmosphere: bool,
 }
 
+impl CloudSun {
+    /// The sun among `lights` (`(light, transform, has Sun)`): the light with
+    /// [`Sun`] wins, otherwise the first directional light; `None` without one.
+    pub fn pick<'a>(
+        lights: impl IntoIterator<Item = (&'a DirectionalLight, &'a GlobalTransform, bool)>,
+        through_atmosphere: bool,
+    ) -> Option<Self> {
+        lights
+            .into_iter()
+            .max_by_key(|(_, _, is_sun)| *is_sun)
+            .map(|(light, transform, _)| {
+                let colour = light.color.to_linear();
+                let e = f64::from(light.illuminance);
+                Self {
+                    direction: -transform.forward().as_vec3(),
+                    illuminance_rgb: [
+                        f64::from(colour.red) * e,
+                        f64::from(colour.green) * e,
+                        f64::from(colour.blue) * e,
+                    ],
+                    through_atmosphere,
+                }
+            })
+    }
+}
+
 /// Night-sky radiance (airglow and starlight), cd/m², so clouds at night are very dark but
 /// neither black nor noise (about 10⁻⁴ cd/m² for a moonless sky; Leinert et al. 1998).
 const NIGHT_SKY_RADIANCE: [f64; 3] = [0.6e-4, 0.8e-4, 1.2e-4];
@@ -476,23 +502,7 @@ fn extract_cloud_views(
     atmospheres: Extract<Query<(), With<Atmosphere>>>,
     frame: Extract<Res<FrameCount>>,
 ) {
-    // The light with `Sun` wins; otherwise the first directional light.
-    let sun = lights
-        .iter()
-        .max_by_key(|(_, _, is_sun)| *is_sun)
-        .map(|(light, transform, _)| {
-            let colour = light.color.to_linear();
-            let e = f64::from(light.illuminance);
-            CloudSun {
-                direction: -transform.forward().as_vec3(),
-                illuminance_rgb: [
-                    f64::from(colour.red) * e,
-                    f64::from(colour.green) * e,
-                    f64::from(colour.blue) * e,
-                ],
-                through_atmosphere: !atmospheres.is_empty(),
-            }
-        });
+    let sun = CloudSun::pick(lights.iter(), !atmospheres.is_empty());
     for (entity, camera, settings, transform, projection) in &cameras {
         let mut entity_commands = commands.entity(entity);
         let height = camera

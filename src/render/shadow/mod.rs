@@ -1,0 +1,672 @@
+//! Cloud shadows: a shadow map of the clouds along the real sun, applied to every
+//! `StandardMaterial` through Bevy's `DirectionalLightTexture`.
+//!
+//! # What it computes
+//!
+//! Each frame a compute pass (`shadow.wgsl`) fills an orthographic map along the sun direction,
+//! centred near the first camera with [`VolumetricClouds`]: each texel holds the fraction of
+//! direct sunlight that reaches the ground on its sun line through every [`CloudLayer`]
+//! (`e^(−τ)`, marched through the same density model as the clouds you see, with the same wind
+//! drift). [`crate::reference::shadow`] is its f64 CPU twin and documents the geometry and the
+//! approximations. Shadows therefore fall away from the sun by `h / tan(elevation)`, move with
+//! the wind and the sun, and are soft where clouds are thin.
+//!
+//! # How geometry receives it
+//!
+//! Bevy 0.19 can modulate a directional light by a texture projected along the light
+//! (`DirectionalLightTexture`, a "light cookie"): the PBR shader multiplies **only that light's
+//! direct term** by the texture's red channel, for every mesh lit by `StandardMaterial`
+//! (terrain, buildings, props), with no change to any material. The projection is exactly an
+//! orthographic map along the sun whose frame is the light's `Transform`: its rotation is the
+//! sun's, its translation the map centre, its x/y scale half the map extent. So the plugin:
+//!
+//! - gives the sun light (the one with [`Sun`](crate::sky::Sun), else the first directional
+//!   light) a `DirectionalLightTexture` with the map's image, tiled;
+//! - moves that light's translation to the camera, snapped to whole texels in the light's
+//!   plane (so the shadows do not shimmer as the camera moves), and sets its scale to half the
+//!   extent (a directional light's translation and scale do not change its lighting or its
+//!   shadow cascades, which use the rotation only);
+//! - writes the map into the image on the GPU each frame.
+//!
+//! The alternatives were worse: a material extension reaches only the materials it wraps, and a
+//! screen-space pass after lighting cannot tell the direct sun from sky light and reflections,
+//! so it darkens ambient light too. The light texture needs the `pbr_light_textures` Bevy
+//! feature (enabled by this crate) and texture binding arrays; where the GPU lacks them Bevy
+//! ignores light textures, and the plugin logs a warning once.
+//!
+//! Outside the map the texture tiles; make [`CloudShadows::extent_m`] cover the ground you
+//! look at (the default 40 km covers the Bern views to the horizon haze).
+//!
+//! # What a frame costs
+//!
+//! One dispatch of `resolution²` threads, each marching `steps` samples per layer it crosses.
+//! With no visible layer, with the sun at or below the horizon, or with the shadows disabled, no
+//! pass runs: the map is set to 1 (no shadow) once, with an upload, and left alone
+//! ([`CloudShadowStats`] counts both).
+
+use std::borrow::Cow;
+
+use bevy::{
+    asset::{RenderAssetUsages, embedded_asset, load_embedded_asset},
+    core_pipeline::schedule::camera_driver,
+    image::ImageSampler,
+    light::{Atmosphere, DirectionalLightTexture},
+    math::DVec3,
+    prelude::*,
+    render::{
+        Extract, ExtractSchedule, Render, RenderApp, RenderStartup, RenderSystems,
+        diagnostic::RecordDiagnostics,
+        extract_resource::{ExtractResource, ExtractResourcePlugin},
+        render_asset::RenderAssets,
+        render_resource::{
+            binding_types::{
+                sampler, storage_buffer_read_only, texture_2d, texture_3d, texture_storage_2d,
+                uniform_buffer,
+            },
+            *,
+        },
+        renderer::{RenderAdapter, RenderContext, RenderDevice, RenderGraph, RenderQueue},
+        texture::GpuImage,
+    },
+};
+
+use super::{
+    VolumetricClouds,
+    march::{CloudSun, GpuCloudLayer, GpuCloudUniforms, LayerDrift, march_inputs},
+    noise::CloudNoiseTextures,
+};
+use crate::{
+    CloudscapeSystems,
+    layers::CloudLayer,
+    reference::{
+        render::{MarchLayer, MarchSettings},
+        shadow::{MAX_SHADOW_STEPS, ShadowMapFrame},
+    },
+    sky::Sun,
+};
+
+/// Settings of the cloud shadow map. Live-editable; changing the resolution makes a new map.
+#[derive(Resource, Reflect, Clone, Debug, PartialEq, ExtractResource)]
+#[reflect(Resource, Default)]
+pub struct CloudShadows {
+    /// Cast cloud shadows. Default true.
+    pub enabled: bool,
+    /// Texels per side of the map, 16–4096. Default 512 (78 m texels over 40 km).
+    pub resolution: u32,
+    /// Side of the square the map covers, metres, centred on the camera. Default 40 000.
+    pub extent_m: f32,
+    /// Samples per layer along each sun line, 1–64. Default 12.
+    pub steps: u32,
+}
+
+impl Default for CloudShadows {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            resolution: 512,
+            extent_m: 40_000.0,
+            steps: 12,
+        }
+    }
+}
+
+impl CloudShadows {
+    /// The settings clamped to what the pass supports: resolution 16–4096, steps 1–64, a
+    /// positive finite extent (else the default).
+    pub fn sanitized(&self) -> Self {
+        Self {
+            enabled: self.enabled,
+            resolution: self.resolution.clamp(16, 4096),
+            extent_m: if self.extent_m.is_finite() && self.extent_m > 0.0 {
+                self.extent_m
+            } else {
+                Self::default().extent_m
+            },
+            steps: self.steps.clamp(1, MAX_SHADOW_STEPS),
+        }
+    }
+}
+
+/// The shadow map's image (main world), made by the plugin and given to the sun light as its
+/// `DirectionalLightTexture`. `Rgba8Unorm`, transmittance in every colour channel.
+#[derive(Resource, Clone, Debug)]
+pub struct CloudShadowMap {
+    /// The image the GPU pass writes.
+    pub image: Handle<Image>,
+    /// Its texels per side.
+    pub resolution: u32,
+}
+
+/// What the shadow pass did (render world), for diagnostics and tests.
+#[derive(Resource, Debug, Default, Clone, Copy)]
+pub struct CloudShadowStats {
+    /// Frames in which the map was marched.
+    pub passes: u64,
+    /// Times the map was reset to "no shadow" (night, no layers, disabled) without a pass.
+    pub clears: u64,
+}
+
+/// Computes the cloud shadow map; part of [`crate::CloudscapePlugin`].
+#[derive(Debug, Default, Clone, Copy)]
+pub struct CloudShadowPlugin;
+
+impl Plugin for CloudShadowPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<CloudShadows>()
+            .register_type::<CloudShadows>()
+            .add_plugins(ExtractResourcePlugin::<CloudShadows>::default())
+            .add_systems(Update, place_cloud_shadow_map.after(CloudscapeSystems::Sun));
+        if app.get_sub_app(RenderApp).is_none() {
+            return;
+        }
+        embedded_asset!(app, "shadow.wgsl");
+        app.sub_app_mut(RenderApp)
+            .init_resource::<CloudShadowStats>()
+            .init_resource::<ExtractedCloudShadow>()
+            .add_systems(ExtractSchedule, extract_cloud_shadow);
+    }
+
+    fn finish(&self, app: &mut App) {
+        let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
+            return;
+        };
+        let device = render_app.world().resource::<RenderDevice>();
+        let adapter = render_app.world().resource::<RenderAdapter>();
+        if !bevy::pbr::decal::clustered::clustered_decals_are_usable(device, adapter) {
+            warn!(
+                "bevy_cloudscape: this GPU has no texture binding arrays, so Bevy ignores light \
+                 textures and cloud shadows will not show on the ground"
+            );
+        }
+        if device.limits().max_storage_textures_per_shader_stage == 0
+            || !adapter
+                .get_downlevel_capabilities()
+                .flags
+                .contains(DownlevelFlags::COMPUTE_SHADERS)
+        {
+            warn!(
+                "bevy_cloudscape: cloud shadows disabled: the GPU has no compute storage textures"
+            );
+            return;
+        }
+        render_app
+            .init_resource::<ShadowMapState>()
+            .add_systems(RenderStartup, init_cloud_shadow_pipeline)
+            .add_systems(
+                Render,
+                prepare_cloud_shadow.in_set(RenderSystems::PrepareBindGroups),
+            )
+            .add_systems(RenderGraph, generate_cloud_shadow.before(camera_driver));
+    }
+}
+
+/// The camera the map follows: the active camera with [`VolumetricClouds`] of lowest order.
+fn shadow_camera<'a>(
+    cameras: impl IntoIterator<Item = (&'a Camera, &'a VolumetricClouds, &'a GlobalTransform)>,
+) -> Option<(&'a VolumetricClouds, &'a GlobalTransform)> {
+    cameras
+        .into_iter()
+        .filter(|(camera, _, _)| camera.is_active)
+        .min_by_key(|(camera, _, _)| camera.order)
+        .map(|(_, settings, transform)| (settings, transform))
+}
+
+/// A new map image, filled with 1 (no shadow).
+fn new_shadow_image(resolution: u32) -> Image {
+    let mut image = Image::new_fill(
+        Extent3d {
+            width: resolution,
+            height: resolution,
+            depth_or_array_layers: 1,
+        },
+        TextureDimension::D2,
+        &[255; 4],
+        TextureFormat::Rgba8Unorm,
+        RenderAssetUsages::RENDER_WORLD,
+    );
+    image.texture_descriptor.usage |= TextureUsages::STORAGE_BINDING | TextureUsages::COPY_SRC;
+    image.sampler = ImageSampler::linear();
+    image
+}
+
+/// Makes the map image, hands it to the sun light, and places the light's frame on the camera.
+fn place_cloud_shadow_map(
+    mut commands: Commands,
+    settings: Res<CloudShadows>,
+    map: Option<ResMut<CloudShadowMap>>,
+    mut images: ResMut<Assets<Image>>,
+    mut lights: Query<
+        (
+            Entity,
+            &mut Transform,
+            Has<Sun>,
+            Option<&DirectionalLightTexture>,
+        ),
+        With<DirectionalLight>,
+    >,
+    cameras: Query<(&Camera, &VolumetricClouds, &GlobalTransform)>,
+) {
+    let settings = settings.sanitized();
+    let sun = lights
+        .iter()
+        .max_by_key(|(_, _, is_sun, _)| *is_sun)
+        .map(|(entity, ..)| entity);
+    let Some((entity, mut transform, _, texture)) = sun.and_then(|e| lights.get_mut(e).ok()) else {
+        return;
+    };
+    let ours = |texture: Option<&DirectionalLightTexture>, image: &Handle<Image>| {
+        texture.is_some_and(|t| t.image == *image)
+    };
+    if !settings.enabled {
+        if let Some(map) = &map
+            && ours(texture, &map.image)
+        {
+            commands.entity(entity).remove::<DirectionalLightTexture>();
+        }
+        return;
+    }
+    let image = match map {
+        Some(map) if map.resolution == settings.resolution => map.image.clone(),
+        Some(mut map) => {
+            images.remove(&map.image);
+            map.image = images.add(new_shadow_image(settings.resolution));
+            map.resolution = settings.resolution;
+            map.image.clone()
+        }
+        None => {
+            let image = images.add(new_shadow_image(settings.resolution));
+            commands.insert_resource(CloudShadowMap {
+                image: image.clone(),
+                resolution: settings.resolution,
+            });
+            image
+        }
+    };
+    if !ours(texture, &image) {
+        commands.entity(entity).insert(DirectionalLightTexture {
+            image: image.clone(),
+            tiled: true,
+        });
+    }
+    let Some((_, camera)) = shadow_camera(cameras.iter()) else {
+        return;
+    };
+    // The map's frame: the light's rotation, centred on the camera snapped to whole texels in
+    // the light's plane, scaled to half the extent.
+    let rotation = transform.rotation;
+    let (x, y, z) = (rotation * Vec3::X, rotation * Vec3::Y, rotation * Vec3::Z);
+    let texel = settings.extent_m / settings.resolution as f32;
+    let snap = |v: f32| (v / texel).round() * texel;
+    let c = camera.translation();
+    transform.translation = x * snap(c.dot(x)) + y * snap(c.dot(y)) + z * c.dot(z);
+    let half = 0.5 * settings.extent_m;
+    transform.scale = Vec3::new(half, half, 1.0);
+}
+
+/// One frame's shadow work, extracted from the main world.
+#[derive(Clone, Debug)]
+enum ShadowJob {
+    /// March the map.
+    March {
+        image: AssetId<Image>,
+        settings: Box<MarchSettings>,
+        layers: Vec<MarchLayer>,
+        frame: ShadowMapFrame,
+        steps: u32,
+    },
+    /// No shadow anywhere (night, no visible layer): make the map 1 if it is not.
+    Clear { image: AssetId<Image> },
+}
+
+#[derive(Resource, Default)]
+struct ExtractedCloudShadow(Option<ShadowJob>);
+
+/// The inputs of the shadow map, from the same numbers the view march uses: the march settings
+/// and visible layers relative to `camera` (the camera the map follows), and the map's frame from
+/// the sun `light`'s transform (rotation, map centre, half-extent scale). `None` when no pass is
+/// needed: no visible layer, or the sun at or below the horizon. The CPU twin of the pass
+/// ([`crate::reference::shadow::cloud_shadow_map`]) takes these.
+pub fn shadow_inputs<'a>(
+    settings: &CloudShadows,
+    clouds: &VolumetricClouds,
+    camera: &GlobalTransform,
+    light: &GlobalTransform,
+    sun: Option<&CloudSun>,
+    layers: impl IntoIterator<Item = (&'a CloudLayer, Option<&'a LayerDrift>)>,
+) -> Option<(MarchSettings, Vec<MarchLayer>, ShadowMapFrame)> {
+    let settings = settings.sanitized();
+    let (march, march_layers) = march_inputs(clouds, camera, 1.0e-3, sun, layers, 0);
+    let up = DVec3::from_array(march.camera_up);
+    let toward_sun = DVec3::from_array(march.sun_direction);
+    let daylight = march.sun_illuminance.iter().any(|&e| e > 0.0) && toward_sun.dot(up) > 0.0;
+    if march_layers.is_empty() || !daylight {
+        return None;
+    }
+    let matrix = light.affine().matrix3;
+    let frame = ShadowMapFrame {
+        centre_m: (light.translation().as_dvec3() - camera.translation().as_dvec3()).to_array(),
+        axis_x_m: matrix.x_axis.as_dvec3().to_array(),
+        axis_y_m: matrix.y_axis.as_dvec3().to_array(),
+        size: settings.resolution,
+    };
+    Some((march, march_layers, frame))
+}
+
+fn extract_cloud_shadow(
+    mut extracted: ResMut<ExtractedCloudShadow>,
+    settings: Extract<Option<Res<CloudShadows>>>,
+    map: Extract<Option<Res<CloudShadowMap>>>,
+    cameras: Extract<Query<(&Camera, &VolumetricClouds, &GlobalTransform)>>,
+    layers: Extract<Query<(&CloudLayer, Option<&LayerDrift>)>>,
+    lights: Extract<
+        Query<(
+            &DirectionalLight,
+            &GlobalTransform,
+            Has<Sun>,
+            Option<&DirectionalLightTexture>,
+        )>,
+    >,
+    atmospheres: Extract<Query<(), With<Atmosphere>>>,
+) {
+    extracted.0 = None;
+    let (Some(settings), Some(map)) = (settings.as_deref(), map.as_deref()) else {
+        return;
+    };
+    let image = map.image.id();
+    let clear = Some(ShadowJob::Clear { image });
+    // The light that carries the map.
+    let Some((light, light_transform)) = lights
+        .iter()
+        .filter(|(.., texture)| texture.is_some_and(|t| t.image == map.image))
+        .map(|(light, transform, ..)| (light, transform))
+        .next()
+    else {
+        extracted.0 = clear;
+        return;
+    };
+    let Some((clouds, camera)) = shadow_camera(cameras.iter()) else {
+        extracted.0 = clear;
+        return;
+    };
+    let sun = CloudSun::pick([(light, light_transform, true)], !atmospheres.is_empty());
+    extracted.0 = match shadow_inputs(
+        settings,
+        clouds,
+        camera,
+        light_transform,
+        sun.as_ref(),
+        layers.iter(),
+    ) {
+        Some((march, layers, frame)) if settings.enabled && frame.size == map.resolution => {
+            Some(ShadowJob::March {
+                image,
+                settings: Box::new(march),
+                layers,
+                frame,
+                steps: settings.sanitized().steps,
+            })
+        }
+        _ => clear,
+    };
+}
+
+/// The shadow uniform, laid out as `ShadowUniforms` in `shadow.wgsl` (64 bytes).
+#[derive(ShaderType, Clone, Debug, Default)]
+struct GpuShadowUniforms {
+    centre_m: Vec4,
+    axis_x_m: Vec4,
+    axis_y_m: Vec4,
+    size: u32,
+    steps: u32,
+    footprint_m: f32,
+    pad: u32,
+}
+
+impl GpuShadowUniforms {
+    fn new(frame: &ShadowMapFrame, steps: u32) -> Self {
+        let v = |a: [f64; 3]| Vec4::new(a[0] as f32, a[1] as f32, a[2] as f32, 0.0);
+        Self {
+            centre_m: v(frame.centre_m),
+            axis_x_m: v(frame.axis_x_m),
+            axis_y_m: v(frame.axis_y_m),
+            size: frame.size,
+            steps,
+            footprint_m: frame.texel_m() as f32,
+            pad: 0,
+        }
+    }
+}
+
+#[derive(Resource)]
+struct CloudShadowPipeline {
+    layout: BindGroupLayoutDescriptor,
+    pipeline: CachedComputePipelineId,
+}
+
+fn init_cloud_shadow_pipeline(
+    mut commands: Commands,
+    asset_server: Res<AssetServer>,
+    pipeline_cache: Res<PipelineCache>,
+) {
+    let layout = BindGroupLayoutDescriptor::new(
+        "cloud_shadow_layout",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::COMPUTE,
+            (
+                texture_storage_2d(TextureFormat::Rgba8Unorm, StorageTextureAccess::WriteOnly),
+                uniform_buffer::<GpuShadowUniforms>(false),
+                uniform_buffer::<GpuCloudUniforms>(false),
+                storage_buffer_read_only::<GpuCloudLayer>(false),
+                texture_3d(TextureSampleType::Float { filterable: true }),
+                texture_3d(TextureSampleType::Float { filterable: true }),
+                texture_2d(TextureSampleType::Float { filterable: true }),
+                sampler(SamplerBindingType::Filtering),
+            ),
+        ),
+    );
+    let pipeline = pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
+        label: Some(Cow::Borrowed("cloud_shadow_pipeline")),
+        layout: vec![layout.clone()],
+        shader: load_embedded_asset!(asset_server.as_ref(), "shadow.wgsl"),
+        entry_point: Some(Cow::Borrowed("generate_shadow")),
+        ..default()
+    });
+    commands.insert_resource(CloudShadowPipeline { layout, pipeline });
+}
+
+/// Whether the map holds shadows (a pass ran since the last clear).
+#[derive(Resource, Default)]
+struct ShadowMapState {
+    dirty: Option<AssetId<Image>>,
+}
+
+/// This frame's dispatch, made by [`prepare_cloud_shadow`].
+#[derive(Resource)]
+struct PreparedCloudShadow {
+    bind_group: BindGroup,
+    size: u32,
+    image: AssetId<Image>,
+}
+
+fn prepare_cloud_shadow(
+    mut commands: Commands,
+    extracted: Res<ExtractedCloudShadow>,
+    pipeline: Option<Res<CloudShadowPipeline>>,
+    noise: Option<Res<CloudNoiseTextures>>,
+    images: Res<RenderAssets<GpuImage>>,
+    pipeline_cache: Res<PipelineCache>,
+    device: Res<RenderDevice>,
+    queue: Res<RenderQueue>,
+    mut state: ResMut<ShadowMapState>,
+    mut stats: ResMut<CloudShadowStats>,
+) {
+    commands.remove_resource::<PreparedCloudShadow>();
+    match &extracted.0 {
+        None => {}
+        Some(ShadowJob::Clear { image }) => {
+            if state.dirty != Some(*image) {
+                return;
+            }
+            let Some(gpu) = images.get(*image) else {
+                return;
+            };
+            let size = gpu.texture.size();
+            let ones = vec![255_u8; (size.width * size.height * 4) as usize];
+            queue.write_texture(
+                gpu.texture.as_image_copy(),
+                &ones,
+                TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(size.width * 4),
+                    rows_per_image: Some(size.height),
+                },
+                size,
+            );
+            state.dirty = None;
+            stats.clears += 1;
+        }
+        Some(ShadowJob::March {
+            image,
+            settings,
+            layers,
+            frame,
+            steps,
+        }) => {
+            let (Some(pipeline), Some(noise), Some(gpu)) = (pipeline, noise, images.get(*image))
+            else {
+                return;
+            };
+            if gpu.texture.size().width != frame.size {
+                return;
+            }
+            let gpu_layers: Vec<GpuCloudLayer> = layers.iter().map(GpuCloudLayer::from).collect();
+            let mut cloud_uniforms =
+                UniformBuffer::from(GpuCloudUniforms::new(settings, gpu_layers.len() as u32));
+            cloud_uniforms.write_buffer(&device, &queue);
+            let mut layer_buffer = StorageBuffer::from(gpu_layers);
+            layer_buffer.write_buffer(&device, &queue);
+            let mut shadow_uniforms = UniformBuffer::from(GpuShadowUniforms::new(frame, *steps));
+            shadow_uniforms.write_buffer(&device, &queue);
+            let (Some(cloud_uniforms), Some(layer_buffer), Some(shadow_uniforms)) = (
+                cloud_uniforms.binding(),
+                layer_buffer.binding(),
+                shadow_uniforms.binding(),
+            ) else {
+                return;
+            };
+            let bind_group = device.create_bind_group(
+                "cloud_shadow_bind_group",
+                &pipeline_cache.get_bind_group_layout(&pipeline.layout),
+                &BindGroupEntries::sequential((
+                    &gpu.texture_view,
+                    shadow_uniforms,
+                    cloud_uniforms,
+                    layer_buffer,
+                    &noise.base.view,
+                    &noise.detail.view,
+                    &noise.weather.view,
+                    &noise.sampler,
+                )),
+            );
+            commands.insert_resource(PreparedCloudShadow {
+                bind_group,
+                size: frame.size,
+                image: *image,
+            });
+        }
+    }
+}
+
+/// Dispatches the shadow pass before any camera renders, so every view this frame is lit by it.
+fn generate_cloud_shadow(
+    prepared: Option<Res<PreparedCloudShadow>>,
+    pipeline: Option<Res<CloudShadowPipeline>>,
+    pipeline_cache: Res<PipelineCache>,
+    mut state: ResMut<ShadowMapState>,
+    mut stats: ResMut<CloudShadowStats>,
+    mut ctx: RenderContext,
+) {
+    let (Some(prepared), Some(pipeline)) = (prepared, pipeline) else {
+        return;
+    };
+    let Some(compute) = pipeline_cache.get_compute_pipeline(pipeline.pipeline) else {
+        return;
+    };
+    let diagnostics = ctx.diagnostic_recorder();
+    let diagnostics = diagnostics.as_deref();
+    let time_span = diagnostics.time_span(ctx.command_encoder(), "cloud_shadow");
+    let encoder = ctx.command_encoder();
+    encoder.push_debug_group("cloud_shadow");
+    {
+        let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
+            label: Some("cloud_shadow"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(compute);
+        pass.set_bind_group(0, &prepared.bind_group, &[]);
+        let groups = prepared.size.div_ceil(8);
+        pass.dispatch_workgroups(groups, groups, 1);
+    }
+    encoder.pop_debug_group();
+    time_span.end(ctx.command_encoder());
+    state.dirty = Some(prepared.image);
+    stats.passes += 1;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn uniform_layout_matches_the_shader() {
+        assert_eq!(GpuShadowUniforms::min_size().get(), 64);
+    }
+
+    #[test]
+    fn settings_are_sanitized() {
+        let wild = CloudShadows {
+            enabled: true,
+            resolution: 1,
+            extent_m: f32::NAN,
+            steps: 1000,
+        }
+        .sanitized();
+        assert_eq!(wild.resolution, 16);
+        assert_eq!(wild.extent_m, CloudShadows::default().extent_m);
+        assert_eq!(wild.steps, MAX_SHADOW_STEPS);
+    }
+
+    #[test]
+    fn no_shadow_job_at_night_or_without_layers() {
+        let clouds = VolumetricClouds::default();
+        let camera = GlobalTransform::from_xyz(0.0, 500.0, 0.0);
+        let light = GlobalTransform::from(Transform::from_scale(Vec3::new(2e4, 2e4, 1.0)));
+        let layer = CloudLayer::default();
+        let day = CloudSun {
+            direction: Vec3::new(0.0, 0.5, 0.8).normalize(),
+            illuminance_rgb: [1e5; 3],
+            through_atmosphere: false,
+        };
+        let night = CloudSun {
+            direction: Vec3::new(0.0, -0.2, 0.9).normalize(),
+            ..day
+        };
+        let settings = CloudShadows::default();
+        let run = |sun: &CloudSun, layers: &[CloudLayer]| {
+            shadow_inputs(
+                &settings,
+                &clouds,
+                &camera,
+                &light,
+                Some(sun),
+                layers.iter().map(|l| (l, None)),
+            )
+        };
+        assert!(run(&day, std::slice::from_ref(&layer)).is_some());
+        assert!(run(&night, std::slice::from_ref(&layer)).is_none());
+        assert!(run(&day, &[]).is_none());
+        let (_, _, frame) = run(&day, std::slice::from_ref(&layer)).unwrap();
+        assert_eq!(frame.centre_m, [0.0, -500.0, 0.0]);
+        assert_eq!(frame.axis_x_m, [2e4, 0.0, 0.0]);
+    }
+}

@@ -1,0 +1,39 @@
+// Cloud shadow map: one texel per line along the sun, holding the fraction of direct sunlight
+// that reaches the ground on that line through every cloud layer. The texel layout is the one
+// Bevy's `DirectionalLightTexture` projects with, so the map lights every `StandardMaterial`
+// directly. Rust side: `src/render/shadow/mod.rs`; CPU twin: `src/reference/shadow.rs`.
+
+#import bevy_cloudscape::clouds::shadow_optical_depth
+
+// 64 bytes. Mirror in Rust: `GpuShadowUniforms`.
+struct ShadowUniforms {
+    // Centre of the map relative to the camera the layer uniforms were built for, m.
+    centre_m: vec4<f32>,
+    // Half the extent along the light's local x and y axes, m (perpendicular to the sun).
+    axis_x_m: vec4<f32>,
+    axis_y_m: vec4<f32>,
+    // Texels per side.
+    size: u32,
+    // Samples per layer interval.
+    steps: u32,
+    // Texel side, m: picks the noise mips.
+    footprint_m: f32,
+    pad: u32,
+}
+
+@group(0) @binding(0) var shadow_map: texture_storage_2d<rgba8unorm, write>;
+@group(0) @binding(1) var<uniform> shadow: ShadowUniforms;
+
+@compute @workgroup_size(8, 8, 1)
+fn generate_shadow(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= shadow.size || id.y >= shadow.size {
+        return;
+    }
+    // Texel (i, j) is the line through centre + (1 - 2u) axis_x + (2v - 1) axis_y
+    // (Rust: `ShadowMapFrame::texel_position`).
+    let uv = (vec2<f32>(id.xy) + 0.5) / f32(shadow.size);
+    let position = shadow.centre_m.xyz + (1.0 - 2.0 * uv.x) * shadow.axis_x_m.xyz
+        + (2.0 * uv.y - 1.0) * shadow.axis_y_m.xyz;
+    let transmittance = exp(-shadow_optical_depth(position, shadow.steps, shadow.footprint_m));
+    textureStore(shadow_map, vec2<i32>(id.xy), vec4<f32>(transmittance, transmittance, transmittance, 1.0));
+}

@@ -1,0 +1,255 @@
+//! The cloud shadow map on the GPU: its texels against the f64 CPU twin, the night rule, and
+//! its effect on a lit `StandardMaterial` ground.
+
+use bevy::{
+    camera::Exposure,
+    light::{DirectionalLightTexture, GlobalAmbientLight},
+    prelude::*,
+};
+use bevy_cloudscape::{
+    prelude::*,
+    reference::{render::CloudTextures, shadow::cloud_shadow_map},
+    render::{
+        VolumetricClouds,
+        march::LayerDrift,
+        shadow::{CloudShadowMap, CloudShadowStats, shadow_inputs},
+    },
+};
+
+use crate::common::scenes::*;
+use crate::harness::output_dir;
+
+/// The shadow map as read back: `(size, transmittance per texel)`, rows from the top.
+fn read_shadow_map(rig: &mut CloudRig) -> (u32, Vec<f64>) {
+    let map = rig.app.world().resource::<CloudShadowMap>().clone();
+    let (_, bytes) = rig.app.read_image(&map.image, 0);
+    let texels = bytes.chunks(4).map(|t| f64::from(t[0]) / 255.0).collect();
+    (map.resolution, texels)
+}
+
+/// The CPU twin of the map for the rig's current state (the state the last frame extracted).
+fn reference_shadow_map(rig: &mut CloudRig, textures: &CloudTextures) -> Vec<f64> {
+    let world = rig.app.world();
+    let settings = world.resource::<CloudShadows>().clone();
+    let camera = *world.get::<GlobalTransform>(rig.camera).unwrap();
+    let clouds = world.get::<VolumetricClouds>(rig.camera).unwrap().clone();
+    let light = *world.get::<GlobalTransform>(rig.sun).unwrap();
+    let directional = world.get::<DirectionalLight>(rig.sun).unwrap().clone();
+    let layers: Vec<(CloudLayer, Option<LayerDrift>)> = world
+        .query::<(&CloudLayer, Option<&LayerDrift>)>()
+        .iter(world)
+        .map(|(l, d)| (l.clone(), d.copied()))
+        .collect();
+    let sun = bevy_cloudscape::render::march::CloudSun::pick([(&directional, &light, true)], false);
+    let (march, march_layers, frame) = shadow_inputs(
+        &settings,
+        &clouds,
+        &camera,
+        &light,
+        sun.as_ref(),
+        layers.iter().map(|(l, d)| (l, d.as_ref())),
+    )
+    .expect("daylight and a visible layer");
+    cloud_shadow_map(
+        textures,
+        &march,
+        &march_layers,
+        &frame,
+        settings.sanitized().steps,
+    )
+}
+
+fn save_map(path: &std::path::Path, size: u32, maps: &[&[f64]]) {
+    let mut image = image::RgbImage::new(size * maps.len() as u32, size);
+    for (k, map) in maps.iter().enumerate() {
+        for (index, t) in map.iter().enumerate() {
+            let v = (t.clamp(0.0, 1.0) * 255.0).round() as u8;
+            let (x, y) = (index as u32 % size, index as u32 / size);
+            image.put_pixel(k as u32 * size + x, y, image::Rgb([v, v, v]));
+        }
+    }
+    image.save(path).unwrap();
+}
+
+fn shadow_scene(sun_deg: (f32, f32)) -> Scene {
+    Scene {
+        name: "shadow",
+        camera: looking(Vec3::new(0.0, 200.0, 0.0), 10.0, 0.0),
+        sun_deg,
+        layers: vec![layer(CloudKind::Cumulus, 0.5)],
+        settings: settings(32),
+    }
+}
+
+#[test]
+fn shadow_map_matches_the_cpu_reference_and_clears_at_night() {
+    let textures = CloudTextures::from_recipe(&small_recipe());
+    let mut rig = CloudRig::new(UVec2::new(16, 16), Msaa::Off, small_recipe());
+    rig.app.world().insert_resource(CloudShadows {
+        resolution: 48,
+        extent_m: 16_000.0,
+        steps: 8,
+        ..default()
+    });
+    rig.set_scene(&shadow_scene((30.0, 180.0)));
+    rig.app.run_frames(4);
+    let passes = rig.app.render_world().resource::<CloudShadowStats>().passes;
+    assert!(passes > 0, "the shadow pass ran");
+    let (size, gpu) = read_shadow_map(&mut rig);
+    let cpu = reference_shadow_map(&mut rig, &textures);
+    save_map(
+        &output_dir().join("shadow_map_gpu_cpu.png"),
+        size,
+        &[&gpu, &cpu],
+    );
+    let errors: Vec<f64> = gpu.iter().zip(&cpu).map(|(g, c)| (g - c).abs()).collect();
+    let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+    let max = errors.iter().cloned().fold(0.0, f64::max);
+    let (darkest, brightest) = cpu
+        .iter()
+        .fold((1.0f64, 0.0f64), |(lo, hi), &t| (lo.min(t), hi.max(t)));
+    eprintln!(
+        "shadow map {size}²: mean |GPU − CPU| {mean:.4}, max {max:.4}, CPU range {darkest:.3}–{brightest:.3}"
+    );
+    // The map must hold real shadows and real gaps, or the comparison proves nothing.
+    assert!(darkest < 0.3 && brightest > 0.95, "{darkest} {brightest}");
+    // 8-bit storage (±0.002) plus lavapipe's 8-bit filtering of the 3D noise.
+    assert!(mean < 0.01, "mean error {mean}");
+    assert!(max < 0.1, "max error {max}");
+
+    // Night: no pass, and the map is reset to 1 once.
+    rig.set_scene(&shadow_scene((-10.0, 180.0)));
+    rig.app.run_frames(3);
+    let stats = *rig.app.render_world().resource::<CloudShadowStats>();
+    rig.app.run_frames(2);
+    let later = *rig.app.render_world().resource::<CloudShadowStats>();
+    assert_eq!(later.passes, stats.passes, "no shadow pass at night");
+    assert_eq!(later.clears, 1, "cleared once, not every frame");
+    let (_, night) = read_shadow_map(&mut rig);
+    assert!(night.iter().all(|&t| t == 1.0), "the night map is all 1");
+}
+
+/// Bilinear, clamped sample of a `size²` map at `uv` (texel centres at `(i + ½) / size`).
+fn sample_map(map: &[f64], size: u32, uv: Vec2) -> f64 {
+    let n = size as f32;
+    let p = uv * n - 0.5;
+    let base = p.floor();
+    let w = p - base;
+    let at = |x: f32, y: f32| {
+        let xi = x.clamp(0.0, n - 1.0) as u32;
+        let yi = y.clamp(0.0, n - 1.0) as u32;
+        map[(yi * size + xi) as usize]
+    };
+    let (wx, wy) = (f64::from(w.x), f64::from(w.y));
+    let top = at(base.x, base.y) * (1.0 - wx) + at(base.x + 1.0, base.y) * wx;
+    let bottom = at(base.x, base.y + 1.0) * (1.0 - wx) + at(base.x + 1.0, base.y + 1.0) * wx;
+    top * (1.0 - wy) + bottom * wy
+}
+
+#[test]
+fn cloud_shadows_darken_only_the_direct_sun_on_lit_ground() {
+    let size = UVec2::new(48, 48);
+    let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
+    rig.app.world().insert_resource(CloudShadows {
+        resolution: 64,
+        extent_m: 8_000.0,
+        steps: 8,
+        ..default()
+    });
+    // No ambient light: the ground's radiance is then the direct sun alone, and the ratio of the
+    // frames with and without shadows is the shadow map's transmittance.
+    rig.app.world().insert_resource(GlobalAmbientLight::NONE);
+    let ground = {
+        let world = rig.app.world();
+        let mesh = world
+            .resource_mut::<Assets<Mesh>>()
+            .add(Plane3d::default().mesh().size(20_000.0, 20_000.0));
+        let material = world
+            .resource_mut::<Assets<StandardMaterial>>()
+            .add(StandardMaterial {
+                base_color: Color::srgb(0.5, 0.5, 0.5),
+                perceptual_roughness: 1.0,
+                reflectance: 0.0,
+                ..default()
+            });
+        world.spawn((Mesh3d(mesh), MeshMaterial3d(material))).id()
+    };
+    // Straight down from below the layer: the view rays meet the ground before any cloud.
+    let scene = Scene {
+        name: "shadow_ground",
+        camera: Transform::from_xyz(0.0, 900.0, 0.0).looking_to(Vec3::NEG_Y, Vec3::NEG_Z),
+        sun_deg: (50.0, 160.0),
+        layers: vec![layer(CloudKind::Cumulus, 0.5)],
+        settings: settings(32),
+    };
+    rig.set_scene(&scene);
+    rig.app.world().entity_mut(rig.camera).insert((
+        Projection::Perspective(PerspectiveProjection {
+            fov: 100f32.to_radians(),
+            ..default()
+        }),
+        Exposure { ev100: 15.0 },
+    ));
+    let (with_shadows, _) = rig.render(4);
+    let (map_size, map) = read_shadow_map(&mut rig);
+    assert!(
+        rig.app
+            .world()
+            .get::<DirectionalLightTexture>(rig.sun)
+            .is_some(),
+        "the sun carries the map"
+    );
+    rig.app.world().resource_mut::<CloudShadows>().enabled = false;
+    let (without, _) = rig.render(3);
+    let _ = ground;
+
+    // Where each pixel's ray meets the ground, and the map texel that covers it.
+    let world = rig.app.world();
+    let camera = world.get::<Camera>(rig.camera).unwrap();
+    let camera_transform = *world.get::<GlobalTransform>(rig.camera).unwrap();
+    let world_from_clip = camera_transform.to_matrix() * camera.clip_from_view().inverse();
+    let light_from_world = world
+        .get::<GlobalTransform>(rig.sun)
+        .unwrap()
+        .affine()
+        .inverse();
+    let origin = camera_transform.translation();
+    let (mut ratios, mut expected) = (Vec::new(), Vec::new());
+    for y in 0..size.y {
+        for x in 0..size.x {
+            let uv = (Vec2::new(x as f32, y as f32) + 0.5) / size.as_vec2();
+            let near = world_from_clip * Vec4::new(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0, 1.0, 1.0);
+            let direction = (near.truncate() / near.w - origin).normalize();
+            let point = origin + direction * (-origin.y / direction.y);
+            let local = light_from_world.transform_point3(point);
+            let map_uv = local.truncate() * Vec2::new(-0.5, 0.5) + 0.5;
+            let index = (y * size.x + x) as usize;
+            let off = luminance(&without[index]);
+            assert!(off > 0.0, "the ground is lit");
+            ratios.push(luminance(&with_shadows[index]) / off);
+            expected.push(sample_map(&map, map_size, map_uv));
+        }
+    }
+    let n = ratios.len() as f64;
+    let mean_error = ratios
+        .iter()
+        .zip(&expected)
+        .map(|(r, e)| (r - e).abs())
+        .sum::<f64>()
+        / n;
+    let (lo, hi) = ratios
+        .iter()
+        .fold((f64::MAX, 0.0f64), |(lo, hi), &r| (lo.min(r), hi.max(r)));
+    eprintln!("ground/shadow: ratio range {lo:.3}–{hi:.3}, mean |ratio − map| {mean_error:.4}");
+    let strip: Vec<[f32; 3]> = ratios.iter().map(|&r| [r as f32; 3]).collect();
+    let map_image: Vec<[f32; 3]> = expected.iter().map(|&t| [t as f32; 3]).collect();
+    save_strip(
+        &output_dir().join("shadow_ground_ratio_vs_map.png"),
+        size,
+        &[&strip, &map_image],
+    );
+    // The view holds shadowed and sunlit ground, and the darkening follows the map texel for
+    // texel (f16 target and 8-bit map: a few thousandths).
+    assert!(lo < 0.5 && hi > 0.95, "{lo} {hi}");
+    assert!(mean_error < 0.02, "mean error {mean_error}");
+}
