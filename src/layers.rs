@@ -576,6 +576,43 @@ pub struct CloudLayer {
     /// Whether the weather mapping sets this layer from the forecast. When false the mapping
     /// leaves every field alone ("play" mode). Default true.
     pub weather_driven: bool,
+    /// The layer's coverage toward distant places, so the weather can change across the view
+    /// (seed 000 §4.4–4.5: Bern's forecast in the foreground, Solothurn's toward Solothurn).
+    /// [`CloudLayer::coverage`] holds near the first place of each entry and each entry's
+    /// coverage from 30 % of the way to its place onward (see [`FarCoverage`]). The renderer
+    /// uses the first [`MAX_FAR_COVERAGES`]. The weather mapping fills it from
+    /// [`WeatherSource::far`](crate::weather::WeatherSource::far). Default: empty (one coverage
+    /// everywhere).
+    pub far_coverage: Vec<FarCoverage>,
+}
+
+pub use crate::reference::render::{FAR_BLEND_START, MAX_FAR_COVERAGES};
+
+/// A layer's coverage at a distant place ([`CloudLayer::far_coverage`]).
+///
+/// With `s` the fraction of the way from `from_m` to `to_m` of a point's projection onto that
+/// line, the coverage there is `near + b(s) · (coverage − near)` with `b` a smoothstep from 0 at
+/// [`FAR_BLEND_START`] to 1 at `s = 1`. The blend is a band across the line, so the far weather
+/// fills that whole side of the sky near the horizon, as distant weather is seen.
+#[derive(Clone, Copy, Debug, PartialEq, Default, Reflect)]
+pub struct FarCoverage {
+    /// The near place, scene metres `[east, north]` (the weather origin is `[0, 0]`).
+    pub from_m: [f32; 2],
+    /// The far place, scene metres `[east, north]`.
+    pub to_m: [f32; 2],
+    /// Fraction of the sky covered at the far place, 0–1.
+    pub coverage: f32,
+}
+
+impl FarCoverage {
+    /// Whether the entry can blend: finite places at least a metre apart, finite coverage.
+    #[must_use]
+    pub fn is_usable(&self) -> bool {
+        let d = [self.to_m[0] - self.from_m[0], self.to_m[1] - self.from_m[1]];
+        self.from_m.iter().chain(&self.to_m).all(|v| v.is_finite())
+            && self.coverage.is_finite()
+            && (d[0] * d[0] + d[1] * d[1]) >= 1.0
+    }
 }
 
 impl Default for CloudLayer {
@@ -604,6 +641,7 @@ impl CloudLayer {
             precipitation: 0.0,
             rain_mm_per_h: 0.0,
             weather_driven: true,
+            far_coverage: Vec::new(),
         }
     }
 
@@ -613,13 +651,25 @@ impl CloudLayer {
         self.top_m - self.base_m
     }
 
-    /// Whether the layer can show anything: coverage and density both finite and above 0, and
-    /// base and top finite with the top above the base. An invisible layer is not sent to the
-    /// GPU.
+    /// The largest coverage anywhere: [`CloudLayer::coverage`] or a usable
+    /// [`CloudLayer::far_coverage`] among the first [`MAX_FAR_COVERAGES`].
+    #[must_use]
+    pub fn max_coverage(&self) -> f32 {
+        self.far_coverage
+            .iter()
+            .take(MAX_FAR_COVERAGES)
+            .filter(|far| far.is_usable())
+            .map(|far| far.coverage)
+            .fold(self.coverage, f32::max)
+    }
+
+    /// Whether the layer can show anything: coverage somewhere ([`CloudLayer::max_coverage`])
+    /// and density both finite and above 0, and base and top finite with the top above the
+    /// base. An invisible layer is not sent to the GPU.
     #[must_use]
     pub fn is_visible(&self) -> bool {
         let positive = |x: f32| x.is_finite() && x > 0.0;
-        positive(self.coverage)
+        positive(self.max_coverage())
             && positive(self.density)
             && self.base_m.is_finite()
             && self.top_m.is_finite()
@@ -649,6 +699,8 @@ impl CloudLayer {
     /// - `precipitation`: clamped to 0–1; NaN becomes 0.
     /// - `rain_mm_per_h`: a negative or NaN value becomes 0; +∞ is kept as `f32::MAX`.
     /// - `profile`: [`DensityProfile::sanitize`].
+    /// - `far_coverage`: unusable entries ([`FarCoverage::is_usable`]) removed, coverages
+    ///   clamped to 0–1.
     ///
     /// It does not allocate, so it can run on every layer every frame.
     pub fn sanitize(&mut self) {
@@ -684,6 +736,10 @@ impl CloudLayer {
             0.0
         };
         self.profile.sanitize();
+        self.far_coverage.retain(FarCoverage::is_usable);
+        for far in &mut self.far_coverage {
+            far.coverage = far.coverage.clamp(0.0, 1.0);
+        }
     }
 
     /// The relative density at `height_m` above the ground: the profile at the height's fraction

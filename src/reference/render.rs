@@ -77,6 +77,16 @@ use super::noise::{
 /// Earth's mean radius in metres, the default [`MarchSettings::planet_radius_m`].
 pub const EARTH_RADIUS_M: f64 = 6_371_000.0;
 
+/// Most far-coverage entries a layer carries ([`MarchLayer::far`]). WGSL twin:
+/// `MAX_FAR_COVERAGES`.
+pub const MAX_FAR_COVERAGES: usize = 2;
+
+/// Where the blend toward a far place's coverage starts, as a fraction of the way from the near
+/// place to the far one: the near forecast holds unchanged over the first 30 % (the foreground),
+/// and the far forecast is complete at the far place and beyond ([`layer_coverage`]). WGSL twin:
+/// `FAR_BLEND_START`.
+pub const FAR_BLEND_START: f64 = 0.3;
+
 /// Most profile control points a layer carries ([`MarchLayer::profile`]).
 pub const MAX_PROFILE_POINTS: usize = 8;
 
@@ -280,6 +290,14 @@ pub struct MarchLayer {
     /// Number of profile points used, `0..=MAX_PROFILE_POINTS`; 0 means density 1 at every
     /// height. Default 4.
     pub profile_points: u32,
+    /// Coverage toward far places ([`layer_coverage`]): per entry `[a_x, a_z, offset,
+    /// coverage]`, where `dot(horizontal, a) + offset` is the fraction of the way from the near
+    /// place to the far one (`a` is the near-to-far vector over its squared length, along the
+    /// noise axes; the offset is the camera's fraction). Only the first
+    /// [`MarchLayer::far_count`] are used. Default: none.
+    pub far: [[f64; 4]; MAX_FAR_COVERAGES],
+    /// Entries of [`MarchLayer::far`] used, `0..=MAX_FAR_COVERAGES`. Default 0.
+    pub far_count: u32,
 }
 
 impl Default for MarchLayer {
@@ -301,6 +319,8 @@ impl Default for MarchLayer {
             skew: [0.0; 2],
             profile: [[0.0; 2]; MAX_PROFILE_POINTS],
             profile_points: 0,
+            far: [[0.0; 4]; MAX_FAR_COVERAGES],
+            far_count: 0,
         };
         layer.set_profile(&[[0.0, 0.0], [0.1, 1.0], [0.6, 0.8], [1.0, 0.0]]);
         layer
@@ -672,11 +692,35 @@ pub fn shell_segments(
     ]
 }
 
-/// Whether a layer can hold any cloud: positive coverage and extinction and a positive,
-/// finite thickness. Inactive layers are skipped everywhere and cost nothing. WGSL twin:
-/// `layer_is_active`.
+/// Largest coverage of a layer anywhere: its own or a far one. WGSL twin: `max_coverage`.
+pub fn max_coverage(layer: &MarchLayer) -> f64 {
+    let count = (layer.far_count as usize).min(MAX_FAR_COVERAGES);
+    layer.far[..count]
+        .iter()
+        .map(|far| far[3])
+        .fold(layer.coverage, f64::max)
+}
+
+/// Coverage of a layer at `horizontal_m` (relative to the camera, along the noise axes): its
+/// own, blended toward each far entry by a smoothstep of the fraction of the way to the far
+/// place, from [`FAR_BLEND_START`] to 1 (see [`crate::layers::FarCoverage`]), clamped to 0–1.
+/// WGSL twin: `layer_coverage`.
+pub fn layer_coverage(layer: &MarchLayer, horizontal_m: [f64; 2]) -> f64 {
+    let count = (layer.far_count as usize).min(MAX_FAR_COVERAGES);
+    let mut coverage = layer.coverage;
+    for far in &layer.far[..count] {
+        let s = horizontal_m[0] * far[0] + horizontal_m[1] * far[1] + far[2];
+        let t = saturate((s - FAR_BLEND_START) / (1.0 - FAR_BLEND_START));
+        coverage += t * t * (3.0 - 2.0 * t) * (far[3] - layer.coverage);
+    }
+    saturate(coverage)
+}
+
+/// Whether a layer can hold any cloud: positive coverage somewhere ([`max_coverage`]) and
+/// extinction and a positive, finite thickness. Inactive layers are skipped everywhere and cost
+/// nothing. WGSL twin: `layer_is_active`.
 pub fn layer_is_active(layer: &MarchLayer) -> bool {
-    layer.coverage > 0.0
+    max_coverage(layer) > 0.0
         && layer.extinction > 0.0
         && layer.top_m > layer.base_m
         && (layer.top_m - layer.base_m).is_finite()
@@ -888,14 +932,17 @@ pub fn layer_density(
         return 0.0;
     }
     // Full coverage is overcast whatever the weather says: no look-up needed.
-    let kappa = if layer.coverage >= 1.0 {
+    let coverage = layer_coverage(layer, horizontal_m);
+    let kappa = if coverage >= 1.0 {
         1.0
+    } else if !is_positive(coverage) {
+        0.0
     } else {
         let uv = [0, 1].map(|a| {
             (horizontal_m[a] + layer.weather_offset_m[a] + layer.skew[a] * height_above_base)
                 / layer.weather_scale_m
         });
-        local_coverage(layer.coverage, textures.weather.sample(uv)[0])
+        local_coverage(coverage, textures.weather.sample(uv)[0])
     };
     if !is_positive(kappa) {
         return 0.0;

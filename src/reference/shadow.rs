@@ -117,7 +117,7 @@ pub fn shadow_optical_depth(
     for _ in 0..=2 * layers.len() {
         let [a, b] =
             next_cloud_interval(layers, radius, origin_altitude, origin_mu, t, f64::INFINITY);
-        if !(b > a) || !b.is_finite() {
+        if a.is_nan() || b <= a || !b.is_finite() {
             break;
         }
         let dt = (b - a) / f64::from(n);

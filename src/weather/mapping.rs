@@ -66,7 +66,7 @@ use std::ops::{Index, IndexMut};
 
 use bevy::prelude::*;
 
-use crate::layers::{CloudKind, CloudLayer};
+use crate::layers::{CloudKind, CloudLayer, FarCoverage};
 use crate::weather::{ForecastFormat, STANDARD_LEVELS_HPA, Variable, VariableSet, WeatherState};
 
 /// Heights of [`STANDARD_LEVELS_HPA`] (850, 700, 500, 300 hPa) in the ICAO standard atmosphere,
@@ -1256,9 +1256,40 @@ pub(crate) fn map_weather_onto_layers(
         |m| *m,
     );
     let mapped = rules.map(&near.state, near.place.elevation_m as f32);
+    // Far places: their own mapping, of which only the coverage is used (seed 000 §4.5: the
+    // distant weather shows on the horizon toward its place). Heights are above each place's
+    // own ground.
+    let far: Vec<(&super::PlaceWeather, MappedWeather)> = current
+        .far
+        .iter()
+        .flatten()
+        .map(|place| {
+            (
+                place,
+                rules.map(&place.state, place.place.elevation_m as f32),
+            )
+        })
+        .collect();
+    let east_north = |p: Vec3| [p.x, -p.z];
     for (slot, mut layer) in &mut layers {
         let mut updated = layer.clone();
         mapped.apply(*slot, &mut updated);
+        if updated.weather_driven {
+            updated.far_coverage = far
+                .iter()
+                .map(|(place, mapped_far)| {
+                    // Applied to a copy of the near layer: an input the far file lacks keeps
+                    // the near value, so a missing far cover means "no change", never 0.
+                    let mut there = updated.clone();
+                    mapped_far.apply(*slot, &mut there);
+                    FarCoverage {
+                        from_m: east_north(near.scene_position),
+                        to_m: east_north(place.scene_position),
+                        coverage: there.coverage,
+                    }
+                })
+                .collect();
+        }
         if updated != *layer {
             *layer = updated;
         }
@@ -1288,6 +1319,74 @@ mod tests {
             state.values[variable as usize] = Some(value);
         }
         state
+    }
+
+    #[test]
+    fn far_places_set_far_coverage_on_weather_driven_layers() {
+        use crate::weather::{CurrentWeather, Place, PlaceWeather};
+        let place = |name: &str, position: Vec3, state: WeatherState| PlaceWeather {
+            place: Place {
+                name: name.into(),
+                latitude_deg: 47.0,
+                longitude_deg: 7.4,
+                elevation_m: f64::from(BERN_M),
+            },
+            scene_position: position,
+            state,
+        };
+        let mut overcast_far = fair();
+        overcast_far.values[Variable::LowCover as usize] = Some(0.95);
+        // The far file lacks mid cover: the far coverage keeps the near value, not 0.
+        overcast_far.values[Variable::MidCover as usize] = None;
+        let mut app = App::new();
+        app.insert_resource(CurrentWeather {
+            near: Some(place("Bern", Vec3::ZERO, fair())),
+            far: vec![
+                Some(place(
+                    "Solothurn",
+                    Vec3::new(3_000.0, 0.0, -30_000.0),
+                    overcast_far,
+                )),
+                None,
+            ],
+        })
+        .insert_resource(WeatherMapping::default())
+        .init_resource::<Assets<crate::weather::Forecast>>()
+        .add_systems(Update, map_weather_onto_layers);
+        let low = app
+            .world_mut()
+            .spawn((LayerSlot::Low, LayerSlot::Low.initial_layer()))
+            .id();
+        let mid = app
+            .world_mut()
+            .spawn((LayerSlot::Mid, LayerSlot::Mid.initial_layer()))
+            .id();
+        let manual = app
+            .world_mut()
+            .spawn((
+                LayerSlot::High,
+                CloudLayer {
+                    weather_driven: false,
+                    ..LayerSlot::High.initial_layer()
+                },
+            ))
+            .id();
+        app.update();
+        let low = app.world().get::<CloudLayer>(low).unwrap();
+        assert!((low.coverage - 0.3).abs() < 1e-6);
+        assert_eq!(
+            low.far_coverage,
+            vec![FarCoverage {
+                from_m: [0.0, 0.0],
+                to_m: [3_000.0, 30_000.0],
+                coverage: 0.95,
+            }]
+        );
+        let mid = app.world().get::<CloudLayer>(mid).unwrap();
+        assert_eq!(mid.far_coverage.len(), 1);
+        assert!((mid.far_coverage[0].coverage - mid.coverage).abs() < 1e-6);
+        let manual = app.world().get::<CloudLayer>(manual).unwrap();
+        assert!(manual.far_coverage.is_empty(), "play-mode layers are left alone");
     }
 
     /// A fair afternoon: every variable the mapping reads, with little weather.

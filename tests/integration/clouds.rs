@@ -136,8 +136,15 @@ fn homogeneous_slab_matches_the_closed_form_on_the_gpu() {
 fn clouds_stop_at_near_geometry_and_cover_far_geometry() {
     let size = UVec2::new(64, 36);
     let mut app = Headless::new(size, TextureFormat::Rgba8UnormSrgb, |app| {
+        // The overcast layer rightly shades the near box through the cloud shadow map; this
+        // test is about the march stopping at the depth, so the shadows (tested in
+        // `shadow.rs`) are off.
         app.add_plugins(CloudscapePlugin)
-            .insert_resource(CloudNoiseSettings(small_recipe()));
+            .insert_resource(CloudNoiseSettings(small_recipe()))
+            .insert_resource(CloudShadows {
+                enabled: false,
+                ..default()
+            });
     });
     let target = app.target.clone();
     app.world().spawn((
@@ -432,4 +439,53 @@ fn hard_cases_stay_finite_and_physical() {
         );
         assert!(rig.views_marched() > 0);
     }
+}
+
+#[test]
+fn far_weather_shows_toward_the_far_place() {
+    use bevy_cloudscape::layers::FarCoverage;
+    let size = UVec2::new(64, 36);
+    let textures = CloudTextures::from_recipe(&small_recipe());
+    let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
+    // Clear over the near place, 80 % cumulus at a far place 30 km north.
+    let layer = CloudLayer {
+        far_coverage: vec![FarCoverage {
+            from_m: [0.0, 0.0],
+            to_m: [0.0, 30_000.0],
+            coverage: 0.8,
+        }],
+        ..layer(CloudKind::Cumulus, 0.0)
+    };
+    let mut mean_t = Vec::new();
+    for (yaw, name) in [(0.0, "far_weather_north"), (180.0, "far_weather_south")] {
+        let scene = Scene {
+            name,
+            camera: looking(Vec3::new(0.0, 2.0, 0.0), 8.0, yaw),
+            sun_deg: (35.0, 200.0),
+            layers: vec![layer.clone()],
+            settings: settings(64),
+        };
+        rig.set_scene(&scene);
+        let (gpu_l, gpu_t) = rig.render(3);
+        let (cpu_l, cpu_t) = rig.reference(&textures);
+        save_strip(
+            &output_dir().join(format!("clouds_{name}.png")),
+            size,
+            &[&gpu_l, &cpu_l],
+        );
+        let t = cpu_t.iter().map(|t| f64::from(*t)).sum::<f64>() / cpu_t.len() as f64;
+        let gpu_mean_t = gpu_t.iter().map(|t| f64::from(*t)).sum::<f64>() / gpu_t.len() as f64;
+        eprintln!("{name}: mean T CPU {t:.4}, GPU {gpu_mean_t:.4}");
+        if t < 1.0 {
+            let error = relative_rmse(&gpu_l, &cpu_l);
+            eprintln!("{name}: relative RMSE {error:.4}");
+            assert!(error <= 0.03, "{name}: relative RMSE {error}");
+        }
+        assert!((gpu_mean_t - t).abs() < 0.01, "{name}: {gpu_mean_t} vs {t}");
+        mean_t.push(t);
+    }
+    // Cloud on the horizon toward the far place, none the other way.
+    // (A band a few degrees high above the northern horizon: about a tenth of the frame.)
+    assert!(mean_t[0] < 0.97, "north: mean T {}", mean_t[0]);
+    assert_eq!(mean_t[1], 1.0, "south stays clear");
 }

@@ -100,7 +100,7 @@ struct CloudUniforms {
     ambient_bottom: vec4<f32>,
 }
 
-// One cloud layer, 144 bytes (an array stride of 144 in the storage buffer). Mirror in Rust
+// One cloud layer, 176 bytes (an array stride of 176 in the storage buffer). Mirror in Rust
 // (`MarchLayer` in reference/render.rs is the f64 source of the same values):
 //
 //     #[derive(ShaderType)]
@@ -116,11 +116,12 @@ struct CloudUniforms {
 //         shape_strength: f32,         // offset  32, 0 = homogeneous slab
 //         precipitation: f32,          // offset  36, 0-1 darkening
 //         profile_count: u32,          // offset  40, 0..=8 (0: density 1 everywhere)
-//         pad: u32,               // offset  44
+//         far_count: u32,              // offset  44, 0..=2 entries of `far`
 //         weather_offset_m: Vec4,      // offset  48, xy weather offset (m), zw skew (m per m;
 //                                      //   -skew * wind direction leans tops downwind)
 //         noise_offset_m: Vec4,        // offset  64, xy base-noise offset, zw detail offset (m)
 //         profile: [Vec4; 4],          // offset  80, (h0, d0, h1, d1), (h2, d2, h3, d3), ...
+//         far: [Vec4; 2],              // offset 144, (a_x, a_z, offset, coverage) per far place
 //     }
 //
 // Offsets are wrapped by their own period on the CPU in f64 (`MarchLayer::set_noise_origin`), so
@@ -137,10 +138,13 @@ struct CloudLayerGpu {
     shape_strength: f32,
     precipitation: f32,
     profile_count: u32,
-    pad: u32,
+    far_count: u32,
     weather_offset_m: vec4<f32>,
     noise_offset_m: vec4<f32>,
     profile: array<vec4<f32>, 4>,
+    // Coverage toward far places: dot(horizontal, xy) + z is the fraction of the way from the
+    // near place to the far one, w the far coverage (Rust: `MarchLayer::far`).
+    far: array<vec4<f32>, 2>,
 }
 
 @group(0) @binding(2) var<uniform> clouds: CloudUniforms;
@@ -157,6 +161,8 @@ struct CloudLayerGpu {
 
 // Rust: the constants of the same names; see their docs there.
 const MAX_PROFILE_POINTS: u32 = 8u;
+const MAX_FAR_COVERAGES: u32 = 2u;
+const FAR_BLEND_START: f32 = 0.3;
 const MAX_SCATTERING_OCTAVES: u32 = 8u;
 const MAX_PRIMARY_STEPS: u32 = 1024u;
 const MAX_LIGHT_STEPS: u32 = 64u;
@@ -236,9 +242,31 @@ fn cloud_layer_count() -> u32 {
     return min(clouds.layer_count, arrayLength(&cloud_layers));
 }
 
+// Largest coverage anywhere: the layer's own or a far one. Rust: `max_coverage`.
+fn max_coverage(layer: CloudLayerGpu) -> f32 {
+    var coverage = layer.coverage;
+    for (var i = 0u; i < min(layer.far_count, MAX_FAR_COVERAGES); i++) {
+        coverage = max(coverage, layer.far[i].w);
+    }
+    return coverage;
+}
+
+// Coverage at `horizontal_m`, blended toward each far place by a smoothstep of the fraction of
+// the way there, from FAR_BLEND_START to 1. Rust: `layer_coverage`.
+fn layer_coverage(layer: CloudLayerGpu, horizontal_m: vec2<f32>) -> f32 {
+    var coverage = layer.coverage;
+    for (var i = 0u; i < min(layer.far_count, MAX_FAR_COVERAGES); i++) {
+        let far = layer.far[i];
+        let s = dot(horizontal_m, far.xy) + far.z;
+        let t = saturate((s - FAR_BLEND_START) / (1.0 - FAR_BLEND_START));
+        coverage += t * t * (3.0 - 2.0 * t) * (far.w - layer.coverage);
+    }
+    return saturate(coverage);
+}
+
 // Rust: `layer_is_active`.
 fn layer_is_active(layer: CloudLayerGpu) -> bool {
-    return layer.coverage > 0.0 && layer.extinction > 0.0 && layer.top_m > layer.base_m;
+    return max_coverage(layer) > 0.0 && layer.extinction > 0.0 && layer.top_m > layer.base_m;
 }
 
 // Next interval [start, end] at or after t_from where the ray is inside an active layer, the
@@ -445,11 +473,14 @@ fn layer_density(layer: CloudLayerGpu, horizontal_m: vec2<f32>, altitude_m: f32,
     if !(profile > 0.0) {
         return 0.0;
     }
+    let coverage = layer_coverage(layer, horizontal_m);
     var kappa = 1.0;
-    if layer.coverage < 1.0 {
+    if !(coverage > 0.0) {
+        kappa = 0.0;
+    } else if coverage < 1.0 {
         let uv = (horizontal_m + layer.weather_offset_m.xy + layer.weather_offset_m.zw * height_above_base)
             / layer.weather_scale_m;
-        kappa = local_coverage(layer.coverage, sample_weather_noise(uv).x);
+        kappa = local_coverage(coverage, sample_weather_noise(uv).x);
     }
     if !(kappa > 0.0) {
         return 0.0;

@@ -56,7 +56,7 @@ use super::{VolumetricClouds, noise::CloudNoiseTextures};
 use crate::{
     CloudscapeSystems,
     layers::CloudLayer,
-    reference::render::{MAX_PROFILE_POINTS, MarchLayer, MarchSettings},
+    reference::render::{MAX_FAR_COVERAGES, MAX_PROFILE_POINTS, MarchLayer, MarchSettings},
     sky::{SceneClock, Sun, light},
 };
 
@@ -343,7 +343,28 @@ fn march_layer(
         })
         .collect();
     march.set_profile(&points);
+    march_far_coverage(&mut march, layer, camera);
     march
+}
+
+/// Fills [`MarchLayer::far`] from the layer's far coverages. Along the noise axes (x east, z
+/// south) a point `p` relative to the camera is the fraction `dot(p + c − from, a)` of the way
+/// from the near place to the far one, with `a = (to − from) / |to − from|²` and `c` the camera:
+/// the f64 part `dot(c − from, a)` becomes the offset.
+fn march_far_coverage(march: &mut MarchLayer, layer: &CloudLayer, camera: DVec3) {
+    let usable = layer.far_coverage.iter().filter(|far| far.is_usable());
+    let mut count = 0;
+    for (slot, far) in march.far.iter_mut().zip(usable) {
+        let axes = |[east, north]: [f32; 2]| [f64::from(east), -f64::from(north)];
+        let (from, to) = (axes(far.from_m), axes(far.to_m));
+        let d = [to[0] - from[0], to[1] - from[1]];
+        let length_sq = d[0] * d[0] + d[1] * d[1];
+        let a = [d[0] / length_sq, d[1] / length_sq];
+        let offset = (camera.x - from[0]) * a[0] + (camera.z - from[1]) * a[1];
+        *slot = [a[0], a[1], offset, f64::from(far.coverage.clamp(0.0, 1.0))];
+        count += 1;
+    }
+    march.far_count = count;
 }
 
 /// Per-view uniforms, laid out as `CloudUniforms` in `clouds.wgsl` (160 bytes).
@@ -413,7 +434,7 @@ impl GpuCloudUniforms {
     }
 }
 
-/// One layer, laid out as `CloudLayerGpu` in `clouds.wgsl` (144 bytes).
+/// One layer, laid out as `CloudLayerGpu` in `clouds.wgsl` (176 bytes).
 #[derive(ShaderType, Clone, Debug, Default)]
 pub struct GpuCloudLayer {
     base_m: f32,
@@ -427,10 +448,11 @@ pub struct GpuCloudLayer {
     shape_strength: f32,
     precipitation: f32,
     profile_count: u32,
-    pad: u32,
+    far_count: u32,
     weather_offset_m: Vec4,
     noise_offset_m: Vec4,
     profile: [Vec4; 4],
+    far: [Vec4; MAX_FAR_COVERAGES],
 }
 
 impl From<&MarchLayer> for GpuCloudLayer {
@@ -452,7 +474,7 @@ impl From<&MarchLayer> for GpuCloudLayer {
             shape_strength: layer.shape_strength as f32,
             precipitation: layer.precipitation as f32,
             profile_count: layer.profile_points,
-            pad: 0,
+            far_count: layer.far_count.min(MAX_FAR_COVERAGES as u32),
             weather_offset_m: Vec4::new(
                 layer.weather_offset_m[0] as f32,
                 layer.weather_offset_m[1] as f32,
@@ -466,6 +488,7 @@ impl From<&MarchLayer> for GpuCloudLayer {
                 layer.detail_offset_m[1] as f32,
             ),
             profile: std::array::from_fn(pair),
+            far: layer.far.map(|f| Vec4::new(f[0] as f32, f[1] as f32, f[2] as f32, f[3] as f32)),
         }
     }
 }
@@ -767,4 +790,70 @@ fn march_cloud_layers(
     ctx.command_encoder().pop_debug_group();
     time_span.end(ctx.command_encoder());
     stats.views_marched += 1;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::layers::{CloudKind, FarCoverage};
+    use crate::reference::render::layer_coverage;
+
+    #[test]
+    fn gpu_structs_match_the_shader_layout() {
+        assert_eq!(GpuCloudUniforms::min_size().get(), 160);
+        assert_eq!(GpuCloudLayer::min_size().get(), 176);
+    }
+
+    #[test]
+    fn far_coverage_blends_toward_the_far_place() {
+        // Near place at the origin, far place 20 km north (scene −z); the camera 2 km east.
+        let layer = CloudLayer {
+            coverage: 0.1,
+            far_coverage: vec![FarCoverage {
+                from_m: [0.0, 0.0],
+                to_m: [0.0, 20_000.0],
+                coverage: 0.9,
+            }],
+            ..CloudLayer::new(CloudKind::Cumulus)
+        };
+        let camera = GlobalTransform::from_xyz(2_000.0, 5.0, 0.0);
+        let (_, layers) = march_inputs(
+            &VolumetricClouds::default(),
+            &camera,
+            1e-3,
+            None,
+            [(&layer, None)],
+            0,
+        );
+        let march = &layers[0];
+        assert_eq!(march.far_count, 1);
+        // Horizontal offsets are relative to the camera along (east, south).
+        let at = |east: f64, north: f64| layer_coverage(march, [east - 2_000.0, -north]);
+        assert!((at(0.0, 0.0) - 0.1).abs() < 1e-6, "near place keeps its own");
+        assert!((at(5_000.0, 5_900.0) - 0.1).abs() < 1e-6, "foreground unchanged");
+        assert!((at(-3_000.0, 20_000.0) - 0.9).abs() < 1e-6, "far place");
+        assert!((at(0.0, 40_000.0) - 0.9).abs() < 1e-6, "beyond it");
+        assert!((at(0.0, -20_000.0) - 0.1).abs() < 1e-6, "behind the near place");
+        let mut last = 0.0;
+        for k in 0..=20 {
+            let c = at(0.0, f64::from(k) * 1_000.0);
+            assert!(c >= last, "monotonic toward the far place");
+            last = c;
+        }
+        // A clear near sky with a cloudy far place still uploads the layer.
+        let clear_here = CloudLayer {
+            coverage: 0.0,
+            ..layer.clone()
+        };
+        assert!(clear_here.is_visible());
+        let (_, layers) = march_inputs(
+            &VolumetricClouds::default(),
+            &camera,
+            1e-3,
+            None,
+            [(&clear_here, None)],
+            0,
+        );
+        assert_eq!(layers.len(), 1);
+    }
 }
