@@ -44,6 +44,7 @@
 //! | `--photo-opacity X` | opacity of the photo overlay, 0–1 | 0.5 |
 //! | `--photo-wiper X` | fraction of the width, from the left, that shows the photo | 1 |
 //! | `--ev100 EV` | camera exposure | 14 (sunlit scenes; Bevy's atmosphere example uses 13) |
+//! | `--no-cloud-shadows` | turn the cloud shadow map off (to compare, or to time its cost) | on |
 //! | `--dem PATH` | elevation file (ESRI ASCII grid or `GeoTIFF`, WGS 84 degrees) | `assets/terrain/bern_globe30s.asc` |
 //!
 //! A bad flag exits with status 2 and a message. Without a display, run with `--headless`.
@@ -116,7 +117,7 @@ const SETTLE_FRAMES: u32 = 3;
 const USAGE: &str = "usage: bern [--camera gurten|bantiger] [--time RFC3339] [--headless] \
                      [--out PATH] [--width W] [--height H] [--frames N --step 10m] [--warmup N] \
                      [--photos DIR] [--photo-opacity 0..1] [--photo-wiper 0..1] [--dem PATH] \
-                     [--ev100 EV]";
+                     [--ev100 EV] [--no-cloud-shadows]";
 
 fn main() -> AppExit {
     if std::env::args().any(|arg| arg == "--help" || arg == "-h") {
@@ -197,7 +198,13 @@ fn main() -> AppExit {
         #[cfg(feature = "inspector")]
         app.add_plugins(panel::PanelPlugin);
     }
-    app.insert_resource(options).insert_resource(args).run()
+    app.insert_resource(CloudShadows {
+        enabled: options.cloud_shadows,
+        ..default()
+    })
+    .insert_resource(options)
+    .insert_resource(args)
+    .run()
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -219,6 +226,8 @@ struct BernOptions {
     dem: PathBuf,
     /// Camera exposure, EV100.
     ev100: f32,
+    /// Cast cloud shadows on the terrain.
+    cloud_shadows: bool,
 }
 
 fn parse_options(
@@ -236,6 +245,7 @@ fn parse_options(
             .join("assets")
             .join(DEM_ASSET),
         ev100: DEFAULT_EV100,
+        cloud_shadows: true,
     };
     let mut warmup = None;
     let mut out_given = false;
@@ -255,6 +265,7 @@ fn parse_options(
             "--photo-opacity" => options.photo_opacity = parse_fraction(&value()?, arg)?,
             "--photo-wiper" => options.photo_wiper = parse_fraction(&value()?, arg)?,
             "--dem" => options.dem = PathBuf::from(value()?),
+            "--no-cloud-shadows" => options.cloud_shadows = false,
             "--ev100" => {
                 let text = value()?;
                 options.ev100 = text

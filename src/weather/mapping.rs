@@ -1386,7 +1386,10 @@ mod tests {
         assert_eq!(mid.far_coverage.len(), 1);
         assert!((mid.far_coverage[0].coverage - mid.coverage).abs() < 1e-6);
         let manual = app.world().get::<CloudLayer>(manual).unwrap();
-        assert!(manual.far_coverage.is_empty(), "play-mode layers are left alone");
+        assert!(
+            manual.far_coverage.is_empty(),
+            "play-mode layers are left alone"
+        );
     }
 
     /// A fair afternoon: every variable the mapping reads, with little weather.

@@ -488,7 +488,9 @@ impl From<&MarchLayer> for GpuCloudLayer {
                 layer.detail_offset_m[1] as f32,
             ),
             profile: std::array::from_fn(pair),
-            far: layer.far.map(|f| Vec4::new(f[0] as f32, f[1] as f32, f[2] as f32, f[3] as f32)),
+            far: layer
+                .far
+                .map(|f| Vec4::new(f[0] as f32, f[1] as f32, f[2] as f32, f[3] as f32)),
         }
     }
 }
@@ -829,11 +831,20 @@ mod tests {
         assert_eq!(march.far_count, 1);
         // Horizontal offsets are relative to the camera along (east, south).
         let at = |east: f64, north: f64| layer_coverage(march, [east - 2_000.0, -north]);
-        assert!((at(0.0, 0.0) - 0.1).abs() < 1e-6, "near place keeps its own");
-        assert!((at(5_000.0, 5_900.0) - 0.1).abs() < 1e-6, "foreground unchanged");
+        assert!(
+            (at(0.0, 0.0) - 0.1).abs() < 1e-6,
+            "near place keeps its own"
+        );
+        assert!(
+            (at(5_000.0, 5_900.0) - 0.1).abs() < 1e-6,
+            "foreground unchanged"
+        );
         assert!((at(-3_000.0, 20_000.0) - 0.9).abs() < 1e-6, "far place");
         assert!((at(0.0, 40_000.0) - 0.9).abs() < 1e-6, "beyond it");
-        assert!((at(0.0, -20_000.0) - 0.1).abs() < 1e-6, "behind the near place");
+        assert!(
+            (at(0.0, -20_000.0) - 0.1).abs() < 1e-6,
+            "behind the near place"
+        );
         let mut last = 0.0;
         for k in 0..=20 {
             let c = at(0.0, f64::from(k) * 1_000.0);

@@ -22,10 +22,11 @@
 //!
 //! - gives the sun light (the one with [`Sun`](crate::sky::Sun), else the first directional
 //!   light) a `DirectionalLightTexture` with the map's image, tiled;
-//! - moves that light's translation to the camera, snapped to whole texels in the light's
-//!   plane (so the shadows do not shimmer as the camera moves), and sets its scale to half the
-//!   extent (a directional light's translation and scale do not change its lighting or its
-//!   shadow cascades, which use the rotation only);
+//! - moves that light's translation over the camera, snapped to whole texels in the light's
+//!   plane (so the shadows do not shimmer as the camera moves) and lifted 1000 km toward the sun
+//!   (Bevy also treats a light texture as a decal box around the light; up there it touches no
+//!   geometry), and sets its scale to half the extent (a directional light's translation and
+//!   scale do not change its lighting or its shadow cascades, which use the rotation only);
 //! - writes the map into the image on the GPU each frame.
 //!
 //! The alternatives were worse: a material extension reaches only the materials it wraps, and a
@@ -298,10 +299,20 @@ fn place_cloud_shadow_map(
     let texel = settings.extent_m / settings.resolution as f32;
     let snap = |v: f32| (v / texel).round() * texel;
     let c = camera.translation();
-    transform.translation = x * snap(c.dot(x)) + y * snap(c.dot(y)) + z * c.dot(z);
+    transform.translation =
+        x * snap(c.dot(x)) + y * snap(c.dot(y)) + z * (c.dot(z) + LIGHT_TEXTURE_LIFT_M);
     let half = 0.5 * settings.extent_m;
     transform.scale = Vec3::new(half, half, 1.0);
 }
+
+/// How far toward the sun the light's translation sits above the camera, metres.
+///
+/// Bevy also registers a light texture as a clustered decal: a box around the light's
+/// translation, ±scale thick along the light's z, which paints the texture onto surfaces inside
+/// it. At the camera that box would print the map as a thin stripe across the terrain; 1000 km
+/// toward the sun it meets no scene geometry. The projection along the sun is the same from
+/// there, and f32 keeps the texel position to about 6 cm at that distance.
+const LIGHT_TEXTURE_LIFT_M: f32 = 1.0e6;
 
 /// One frame's shadow work, extracted from the main world.
 #[derive(Clone, Debug)]
@@ -343,8 +354,12 @@ pub fn shadow_inputs<'a>(
         return None;
     }
     let matrix = light.affine().matrix3;
+    // The light sits far up the sun line (`LIGHT_TEXTURE_LIFT_M`); slide the centre back along
+    // the light's z into the plane through the camera: the same sun line, small numbers.
+    let z = matrix.z_axis.as_dvec3().normalize_or_zero();
+    let centre = light.translation().as_dvec3() - camera.translation().as_dvec3();
     let frame = ShadowMapFrame {
-        centre_m: (light.translation().as_dvec3() - camera.translation().as_dvec3()).to_array(),
+        centre_m: (centre - z * centre.dot(z)).to_array(),
         axis_x_m: matrix.x_axis.as_dvec3().to_array(),
         axis_y_m: matrix.y_axis.as_dvec3().to_array(),
         size: settings.resolution,
