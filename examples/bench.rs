@@ -2,7 +2,7 @@
 //! converged reference, and reports the time and the error of each.
 //!
 //! ```text
-//! cargo run --release --example bench -- [--width W] [--height H] [--frames N] [--out DIR] [--no-jitter]
+//! cargo run --release --example bench -- [--width W] [--height H] [--frames N] [--out DIR] [--no-jitter] [--effects-only]
 //! ```
 //!
 //! Scenes: cumulus at noon, overcast stratus, sunset behind altocumulus, the camera inside a
@@ -21,6 +21,9 @@
 //!   to the reference (horizontal, log scale 10⁻³ to 1), one dot per scene and preset: LOW red,
 //!   MEDIUM yellow, HIGH green, ULTRA blue; grey lines at every decade.
 //! - `images/SCENE_PRESET.png`: each render beside the reference.
+//! - `effects.csv`: `effect,scene,ms_with,ms_without,ratio`, the median whole-frame time with
+//!   and without each optional effect (today the cloud shadow map, 512² by default), on the
+//!   cumulus scene with `MEDIUM`.
 //!
 //! On software Vulkan (lavapipe) the times are CPU times: compare the ratios, not the
 //! milliseconds.
@@ -43,15 +46,19 @@ struct Args {
     out: PathBuf,
     /// Turn the presets' ray jitter off, to separate its noise from the bias of fewer steps.
     no_jitter: bool,
+    /// Measure only the optional effects (`effects.csv`), not the presets.
+    effects_only: bool,
 }
 
 fn parse_args() -> Result<Args, String> {
-    let usage = "usage: bench [--width W] [--height H] [--frames N] [--out DIR] [--no-jitter]";
+    let usage = "usage: bench [--width W] [--height H] [--frames N] [--out DIR] [--no-jitter] \
+                 [--effects-only]";
     let mut args = Args {
         size: UVec2::new(160, 90),
         frames: 5,
         out: PathBuf::from("bench"),
         no_jitter: false,
+        effects_only: false,
     };
     let mut it = std::env::args().skip(1);
     while let Some(arg) = it.next() {
@@ -67,6 +74,7 @@ fn parse_args() -> Result<Args, String> {
             "--height" => args.size.y = number("--height")?,
             "--frames" => args.frames = number("--frames")?,
             "--no-jitter" => args.no_jitter = true,
+            "--effects-only" => args.effects_only = true,
             "--out" => {
                 args.out = it
                     .next()
@@ -177,6 +185,27 @@ fn measure(
     }
 }
 
+/// What each optional effect costs: the median whole-frame time with the effect and without it,
+/// on the cumulus scene with `MEDIUM` (CSV `effect,scene,ms_with,ms_without,ratio`).
+fn measure_effects(rig: &mut CloudRig, frames: u32) -> String {
+    let scene = Scene {
+        settings: VolumetricClouds::MEDIUM,
+        ..showcase_scenes().remove(0)
+    };
+    rig.set_scene(&scene);
+    let mut time_with = |enabled: bool| {
+        rig.app.world().resource_mut::<CloudShadows>().enabled = enabled;
+        rig.app.run_frames(2);
+        median_frame_time(rig, frames).as_secs_f64() * 1e3
+    };
+    let (with, without) = (time_with(true), time_with(false));
+    format!(
+        "effect,scene,ms_with,ms_without,ratio\ncloud_shadows,{},{with:.3},{without:.3},{:.3}\n",
+        scene.name,
+        with / without
+    )
+}
+
 /// (relative RMSE, largest absolute difference) of linear luminance.
 fn errors(image: &[[f32; 3]], reference: &[[f32; 3]]) -> (f64, f64) {
     let n = reference.len() as f64;
@@ -248,6 +277,14 @@ fn run(args: &Args) -> Result<(), String> {
     std::fs::create_dir_all(args.out.join("images"))
         .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
     let mut rig = CloudRig::new(args.size, Msaa::Off, default());
+    if args.effects_only {
+        let effects = measure_effects(&mut rig, args.frames);
+        let path = args.out.join("effects.csv");
+        std::fs::write(&path, &effects)
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        print!("{effects}");
+        return Ok(());
+    }
     let mut rows = Vec::new();
     for scene in bench_scenes() {
         let reference = measure(&mut rig, &scene, &reference_settings(), args.frames);
@@ -310,6 +347,11 @@ fn run(args: &Args) -> Result<(), String> {
             r.nan_count
         ));
     }
+    let effects = measure_effects(&mut rig, args.frames);
+    let effects_path = args.out.join("effects.csv");
+    std::fs::write(&effects_path, &effects)
+        .map_err(|e| format!("cannot write {}: {e}", effects_path.display()))?;
+    eprint!("{effects}");
     let csv_path = args.out.join("bench.csv");
     std::fs::write(&csv_path, &csv)
         .map_err(|e| format!("cannot write {}: {e}", csv_path.display()))?;

@@ -134,6 +134,17 @@ fn homogeneous_slab_matches_the_closed_form_on_the_gpu() {
 
 #[test]
 fn clouds_stop_at_near_geometry_and_cover_far_geometry() {
+    near_box_unchanged_far_box_covered(1.0);
+}
+
+/// At half resolution the upsample must keep the near box's edges clean: a plain bilinear
+/// upsample would blend the cloudy sky texels next to the box into its border pixels.
+#[test]
+fn reduced_resolution_upsample_respects_depth_edges() {
+    near_box_unchanged_far_box_covered(0.5);
+}
+
+fn near_box_unchanged_far_box_covered(resolution_scale: f32) {
     let size = UVec2::new(64, 36);
     let mut app = Headless::new(size, TextureFormat::Rgba8UnormSrgb, |app| {
         // The overcast layer rightly shades the near box through the cloud shadow map; this
@@ -157,6 +168,7 @@ fn clouds_stop_at_near_geometry_and_cover_far_geometry() {
         RenderTarget::Image(target.into()),
         VolumetricClouds {
             jitter: false,
+            resolution_scale,
             ..VolumetricClouds::MEDIUM
         },
         EXPOSURE,
@@ -196,7 +208,17 @@ fn clouds_stop_at_near_geometry_and_cover_far_geometry() {
     app.run_frames(3);
     let cloudy = app.read_target();
     clear.save_png(output_dir().join("depth_clear.png"), 1.0);
-    cloudy.save_png(output_dir().join("depth_cloudy.png"), 1.0);
+    cloudy.save_png(
+        output_dir().join(format!("depth_cloudy_scale_{resolution_scale}.png")),
+        1.0,
+    );
+    let stats = *app.render_world().resource::<CloudPassStats>();
+    assert!(stats.views_marched > 0);
+    assert_eq!(
+        stats.views_upsampled > 0,
+        resolution_scale < 1.0,
+        "the reduced-resolution path runs exactly when asked for"
+    );
 
     let byte = |v: f32| (encode_srgb(v) * 255.0).round() as i32;
     let changed = |x: u32, y: u32| {

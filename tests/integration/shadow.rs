@@ -34,7 +34,7 @@ fn reference_shadow_map(rig: &mut CloudRig, textures: &CloudTextures) -> Vec<f64
     let camera = *world.get::<GlobalTransform>(rig.camera).unwrap();
     let clouds = world.get::<VolumetricClouds>(rig.camera).unwrap().clone();
     let light = *world.get::<GlobalTransform>(rig.sun).unwrap();
-    let directional = world.get::<DirectionalLight>(rig.sun).unwrap().clone();
+    let directional = *world.get::<DirectionalLight>(rig.sun).unwrap();
     let layers: Vec<(CloudLayer, Option<LayerDrift>)> = world
         .query::<(&CloudLayer, Option<&LayerDrift>)>()
         .iter(world)

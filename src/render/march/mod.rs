@@ -47,6 +47,7 @@ use bevy::{
         },
         renderer::{RenderAdapter, RenderContext, RenderDevice, RenderQueue, ViewQuery},
         sync_world::RenderEntity,
+        texture::{CachedTexture, TextureCache},
         view::{ViewTarget, ViewUniform, ViewUniformOffset, ViewUniforms},
     },
     shader::load_shader_library,
@@ -80,6 +81,7 @@ impl Plugin for CloudMarchPlugin {
         }
         load_shader_library!(app, "clouds.wgsl");
         embedded_asset!(app, "march.wgsl");
+        embedded_asset!(app, "upsample.wgsl");
         app.sub_app_mut(RenderApp)
             .init_resource::<CloudPassStats>()
             .add_systems(ExtractSchedule, extract_cloud_views);
@@ -104,12 +106,14 @@ impl Plugin for CloudMarchPlugin {
         }
         render_app
             .init_resource::<SpecializedRenderPipelines<CloudMarchPipeline>>()
+            .init_resource::<SpecializedRenderPipelines<CloudUpsamplePipeline>>()
             .add_systems(RenderStartup, init_cloud_march_pipeline)
             .add_systems(
                 Render,
                 (
                     prepare_cloud_march_pipelines.in_set(RenderSystems::Prepare),
-                    prepare_cloud_view_buffers.in_set(RenderSystems::PrepareResources),
+                    (prepare_cloud_view_buffers, prepare_low_res_targets)
+                        .in_set(RenderSystems::PrepareResources),
                 ),
             )
             .add_systems(
@@ -502,6 +506,8 @@ pub struct ExtractedCloudView {
     pub settings: MarchSettings,
     /// The visible layers.
     pub layers: Vec<MarchLayer>,
+    /// [`VolumetricClouds::effective_resolution_scale`].
+    pub resolution_scale: f32,
 }
 
 /// How many times the march pass ran, for diagnostics and tests (render world).
@@ -509,6 +515,8 @@ pub struct ExtractedCloudView {
 pub struct CloudPassStats {
     /// Views marched since start-up.
     pub views_marched: u64,
+    /// Of those, views marched at a reduced resolution and upsampled.
+    pub views_upsampled: u64,
 }
 
 fn extract_cloud_views(
@@ -554,6 +562,7 @@ fn extract_cloud_views(
         entity_commands.insert(ExtractedCloudView {
             settings: march,
             layers: march_layers,
+            resolution_scale: settings.effective_resolution_scale(),
         });
     }
 }
@@ -604,6 +613,22 @@ pub struct CloudMarchPipelineKey {
     pub format: TextureFormat,
     /// MSAA sample count of the view (the depth prepass is multisampled when > 1).
     pub samples: u32,
+    /// March into the reduced-resolution targets ([`LOW_RES_COLOUR_FORMAT`],
+    /// [`LOW_RES_DISTANCE_FORMAT`]) for the upsample, instead of blending onto the view.
+    pub low_res: bool,
+}
+
+/// Format of the reduced-resolution `(L, T)` target.
+pub const LOW_RES_COLOUR_FORMAT: TextureFormat = TextureFormat::Rgba16Float;
+/// Format of the reduced-resolution target of ray-end distances (metres).
+pub const LOW_RES_DISTANCE_FORMAT: TextureFormat = TextureFormat::R32Float;
+
+fn depth_binding(multisampled: bool) -> BindGroupLayoutEntryBuilder {
+    if multisampled {
+        texture_depth_2d_multisampled()
+    } else {
+        texture_depth_2d()
+    }
 }
 
 fn march_layout(label: &'static str, multisampled: bool) -> BindGroupLayoutDescriptor {
@@ -613,17 +638,28 @@ fn march_layout(label: &'static str, multisampled: bool) -> BindGroupLayoutDescr
             ShaderStages::FRAGMENT,
             (
                 uniform_buffer::<ViewUniform>(true),
-                if multisampled {
-                    texture_depth_2d_multisampled()
-                } else {
-                    texture_depth_2d()
-                },
+                depth_binding(multisampled),
                 uniform_buffer::<GpuCloudUniforms>(false),
                 storage_buffer_read_only::<GpuCloudLayer>(false),
                 texture_3d(TextureSampleType::Float { filterable: true }),
                 texture_3d(TextureSampleType::Float { filterable: true }),
                 texture_2d(TextureSampleType::Float { filterable: true }),
                 sampler(SamplerBindingType::Filtering),
+            ),
+        ),
+    )
+}
+
+fn upsample_layout(label: &'static str, multisampled: bool) -> BindGroupLayoutDescriptor {
+    BindGroupLayoutDescriptor::new(
+        label,
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::FRAGMENT,
+            (
+                uniform_buffer::<ViewUniform>(true),
+                depth_binding(multisampled),
+                texture_2d(TextureSampleType::Float { filterable: false }),
+                texture_2d(TextureSampleType::Float { filterable: false }),
             ),
         ),
     )
@@ -640,7 +676,27 @@ fn init_cloud_march_pipeline(
         fullscreen: fullscreen.clone(),
         shader: load_embedded_asset!(asset_server.as_ref(), "march.wgsl"),
     });
+    commands.insert_resource(CloudUpsamplePipeline {
+        layout: upsample_layout("cloud_upsample_layout", false),
+        layout_multisampled: upsample_layout("cloud_upsample_layout_multisampled", true),
+        fullscreen: fullscreen.clone(),
+        shader: load_embedded_asset!(asset_server.as_ref(), "upsample.wgsl"),
+    });
 }
+
+/// `scene · T + L`: the fragment returns `(L, T)`.
+const COMPOSITE_BLEND: BlendState = BlendState {
+    color: BlendComponent {
+        src_factor: BlendFactor::One,
+        dst_factor: BlendFactor::SrcAlpha,
+        operation: BlendOperation::Add,
+    },
+    alpha: BlendComponent {
+        src_factor: BlendFactor::Zero,
+        dst_factor: BlendFactor::One,
+        operation: BlendOperation::Add,
+    },
+};
 
 impl SpecializedRenderPipeline for CloudMarchPipeline {
     type Key = CloudMarchPipelineKey;
@@ -651,6 +707,19 @@ impl SpecializedRenderPipeline for CloudMarchPipeline {
         if multisampled {
             shader_defs.push("MULTISAMPLED".into());
         }
+        let targets = if key.low_res {
+            shader_defs.push("LOW_RES".into());
+            vec![
+                Some(ColorTargetState::from(LOW_RES_COLOUR_FORMAT)),
+                Some(ColorTargetState::from(LOW_RES_DISTANCE_FORMAT)),
+            ]
+        } else {
+            vec![Some(ColorTargetState {
+                format: key.format,
+                blend: Some(COMPOSITE_BLEND),
+                write_mask: ColorWrites::ALL,
+            })]
+        };
         RenderPipelineDescriptor {
             label: Some(Cow::Borrowed("cloud_march_pipeline")),
             layout: vec![if multisampled {
@@ -663,21 +732,53 @@ impl SpecializedRenderPipeline for CloudMarchPipeline {
                 shader: self.shader.clone(),
                 shader_defs,
                 entry_point: Some(Cow::Borrowed("fragment")),
+                targets,
+            }),
+            multisample: MultisampleState {
+                // The reduced-resolution targets are single-sampled.
+                count: if key.low_res { 1 } else { key.samples },
+                ..default()
+            },
+            ..default()
+        }
+    }
+}
+
+/// Layouts and shader of the depth-aware upsample that composites a reduced-resolution march.
+#[derive(Resource)]
+pub struct CloudUpsamplePipeline {
+    layout: BindGroupLayoutDescriptor,
+    layout_multisampled: BindGroupLayoutDescriptor,
+    fullscreen: FullscreenShader,
+    shader: Handle<Shader>,
+}
+
+impl SpecializedRenderPipeline for CloudUpsamplePipeline {
+    /// The view's main-texture format and sample count (`low_res` unused).
+    type Key = CloudMarchPipelineKey;
+
+    fn specialize(&self, key: Self::Key) -> RenderPipelineDescriptor {
+        let multisampled = key.samples > 1;
+        let shader_defs = if multisampled {
+            vec!["MULTISAMPLED".into()]
+        } else {
+            Vec::new()
+        };
+        RenderPipelineDescriptor {
+            label: Some(Cow::Borrowed("cloud_upsample_pipeline")),
+            layout: vec![if multisampled {
+                self.layout_multisampled.clone()
+            } else {
+                self.layout.clone()
+            }],
+            vertex: self.fullscreen.to_vertex_state(),
+            fragment: Some(FragmentState {
+                shader: self.shader.clone(),
+                shader_defs,
+                entry_point: Some(Cow::Borrowed("fragment")),
                 targets: vec![Some(ColorTargetState {
                     format: key.format,
-                    // scene · T + L: the shader returns (L, T).
-                    blend: Some(BlendState {
-                        color: BlendComponent {
-                            src_factor: BlendFactor::One,
-                            dst_factor: BlendFactor::SrcAlpha,
-                            operation: BlendOperation::Add,
-                        },
-                        alpha: BlendComponent {
-                            src_factor: BlendFactor::Zero,
-                            dst_factor: BlendFactor::One,
-                            operation: BlendOperation::Add,
-                        },
-                    }),
+                    blend: Some(COMPOSITE_BLEND),
                     write_mask: ColorWrites::ALL,
                 })],
             }),
@@ -690,30 +791,96 @@ impl SpecializedRenderPipeline for CloudMarchPipeline {
     }
 }
 
-/// The specialised pipeline of a view.
+/// The specialised pipelines of a view: the march, and the upsample when the view marches at a
+/// reduced resolution.
 #[derive(Component)]
-pub struct CloudMarchPipelineId(pub CachedRenderPipelineId);
+pub struct CloudMarchPipelineId {
+    /// The march.
+    pub march: CachedRenderPipelineId,
+    /// The upsample, for a reduced resolution.
+    pub upsample: Option<CachedRenderPipelineId>,
+}
 
 fn prepare_cloud_march_pipelines(
     mut commands: Commands,
     pipeline_cache: Res<PipelineCache>,
     mut pipelines: ResMut<SpecializedRenderPipelines<CloudMarchPipeline>>,
+    mut upsample_pipelines: ResMut<SpecializedRenderPipelines<CloudUpsamplePipeline>>,
     pipeline: Option<Res<CloudMarchPipeline>>,
-    views: Query<(Entity, &ViewTarget, &Msaa), With<ExtractedCloudView>>,
+    upsample: Option<Res<CloudUpsamplePipeline>>,
+    views: Query<(Entity, &ViewTarget, &Msaa, &ExtractedCloudView)>,
 ) {
-    let Some(pipeline) = pipeline else {
+    let (Some(pipeline), Some(upsample)) = (pipeline, upsample) else {
         return;
     };
-    for (entity, target, msaa) in &views {
-        let id = pipelines.specialize(
-            &pipeline_cache,
-            &pipeline,
-            CloudMarchPipelineKey {
-                format: target.main_texture_format(),
-                samples: msaa.samples(),
-            },
-        );
-        commands.entity(entity).insert(CloudMarchPipelineId(id));
+    for (entity, target, msaa, view) in &views {
+        let key = CloudMarchPipelineKey {
+            format: target.main_texture_format(),
+            samples: msaa.samples(),
+            low_res: view.resolution_scale < 1.0,
+        };
+        let march = pipelines.specialize(&pipeline_cache, &pipeline, key);
+        let upsample = key
+            .low_res
+            .then(|| upsample_pipelines.specialize(&pipeline_cache, &upsample, key));
+        commands
+            .entity(entity)
+            .insert(CloudMarchPipelineId { march, upsample });
+    }
+}
+
+/// The reduced-resolution targets of a view that marches below full resolution.
+#[derive(Component)]
+pub struct CloudLowResTargets {
+    /// `(L, T)`, [`LOW_RES_COLOUR_FORMAT`].
+    pub colour: CachedTexture,
+    /// Where each ray was stopped, metres ([`LOW_RES_DISTANCE_FORMAT`]).
+    pub distance: CachedTexture,
+}
+
+/// Size of the reduced-resolution march for a view of `size` pixels at `scale`: each side
+/// rounded up, at least 1.
+pub fn low_res_size(size: UVec2, scale: f32) -> UVec2 {
+    (size.as_vec2() * scale).ceil().as_uvec2().max(UVec2::ONE)
+}
+
+fn prepare_low_res_targets(
+    mut commands: Commands,
+    mut cache: ResMut<TextureCache>,
+    device: Res<RenderDevice>,
+    views: Query<(Entity, &ViewTarget, &ExtractedCloudView)>,
+) {
+    for (entity, target, view) in &views {
+        if view.resolution_scale >= 1.0 {
+            commands.entity(entity).remove::<CloudLowResTargets>();
+            continue;
+        }
+        let full = target.main_texture().size();
+        let size = low_res_size(UVec2::new(full.width, full.height), view.resolution_scale);
+        let mut texture = |label: &'static str, format: TextureFormat| {
+            cache.get(
+                &device,
+                TextureDescriptor {
+                    label: Some(label),
+                    size: Extent3d {
+                        width: size.x,
+                        height: size.y,
+                        depth_or_array_layers: 1,
+                    },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: TextureDimension::D2,
+                    format,
+                    usage: TextureUsages::RENDER_ATTACHMENT | TextureUsages::TEXTURE_BINDING,
+                    view_formats: &[],
+                },
+            )
+        };
+        let colour = texture("cloud_low_res_colour", LOW_RES_COLOUR_FORMAT);
+        let distance = texture("cloud_low_res_distance", LOW_RES_DISTANCE_FORMAT);
+        commands
+            .entity(entity)
+            .insert(CloudLowResTargets { colour, distance });
     }
 }
 
@@ -724,25 +891,28 @@ type MarchViewQuery = (
     &'static CloudViewBuffers,
     &'static CloudMarchPipelineId,
     &'static Msaa,
+    Option<&'static CloudLowResTargets>,
 );
 
 fn march_cloud_layers(
     view: ViewQuery<MarchViewQuery, With<ExtractedCloudView>>,
     pipeline: Option<Res<CloudMarchPipeline>>,
+    upsample: Option<Res<CloudUpsamplePipeline>>,
     noise: Option<Res<CloudNoiseTextures>>,
     view_uniforms: Res<ViewUniforms>,
     pipeline_cache: Res<PipelineCache>,
     mut stats: ResMut<CloudPassStats>,
     mut ctx: RenderContext,
 ) {
-    let (target, prepass, view_offset, buffers, pipeline_id, msaa): QueryItem<MarchViewQuery> =
-        view.into_inner();
+    let (target, prepass, view_offset, buffers, pipeline_ids, msaa, low_res): QueryItem<
+        MarchViewQuery,
+    > = view.into_inner();
     let (Some(pipeline), Some(noise), Some(view_binding), Some(depth), Some(render_pipeline)) = (
         pipeline,
         noise,
         view_uniforms.uniforms.binding(),
         prepass.depth_view(),
-        pipeline_cache.get_render_pipeline(pipeline_id.0),
+        pipeline_cache.get_render_pipeline(pipeline_ids.march),
     ) else {
         return;
     };
@@ -750,7 +920,22 @@ fn march_cloud_layers(
     else {
         return;
     };
-    let layout = if msaa.samples() > 1 {
+    // At a reduced resolution: the targets, and the upsample's pipeline and layout.
+    let upsample = match (low_res, pipeline_ids.upsample) {
+        (Some(targets), Some(id)) => {
+            let (Some(upsample), Some(upsample_pipeline)) =
+                (upsample, pipeline_cache.get_render_pipeline(id))
+            else {
+                return;
+            };
+            Some((targets, upsample, upsample_pipeline))
+        }
+        (None, None) => None,
+        // The targets or pipeline of a changed scale are not ready yet.
+        _ => return,
+    };
+    let multisampled = msaa.samples() > 1;
+    let layout = if multisampled {
         &pipeline.layout_multisampled
     } else {
         &pipeline.layout
@@ -759,7 +944,7 @@ fn march_cloud_layers(
         "cloud_march_bind_group",
         &pipeline_cache.get_bind_group_layout(layout),
         &BindGroupEntries::sequential((
-            view_binding,
+            view_binding.clone(),
             depth,
             uniforms,
             layers,
@@ -769,17 +954,55 @@ fn march_cloud_layers(
             &noise.sampler,
         )),
     );
+    let upsample_bind_group = upsample.as_ref().map(|(targets, upsample, _)| {
+        let layout = if multisampled {
+            &upsample.layout_multisampled
+        } else {
+            &upsample.layout
+        };
+        ctx.render_device().create_bind_group(
+            "cloud_upsample_bind_group",
+            &pipeline_cache.get_bind_group_layout(layout),
+            &BindGroupEntries::sequential((
+                view_binding,
+                depth,
+                &targets.colour.default_view,
+                &targets.distance.default_view,
+            )),
+        )
+    });
 
     let diagnostics = ctx.diagnostic_recorder();
     let diagnostics = diagnostics.as_deref();
     let time_span = diagnostics.time_span(ctx.command_encoder(), "cloud_march");
     ctx.command_encoder().push_debug_group("cloud_march");
+    fn clear(view: &TextureView, value: LinearRgba) -> RenderPassColorAttachment<'_> {
+        RenderPassColorAttachment {
+            view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: Operations {
+                load: LoadOp::Clear(value.into()),
+                store: StoreOp::Store,
+            },
+        }
+    }
     {
+        let attachments = match &upsample {
+            Some((targets, ..)) => vec![
+                Some(clear(
+                    &targets.colour.default_view,
+                    LinearRgba::new(0.0, 0.0, 0.0, 1.0),
+                )),
+                Some(clear(&targets.distance.default_view, LinearRgba::NONE)),
+            ],
+            None => vec![Some(target.get_color_attachment())],
+        };
         let mut pass = ctx
             .command_encoder()
             .begin_render_pass(&RenderPassDescriptor {
                 label: Some("cloud_march"),
-                color_attachments: &[Some(target.get_color_attachment())],
+                color_attachments: &attachments,
                 depth_stencil_attachment: None,
                 timestamp_writes: None,
                 occlusion_query_set: None,
@@ -788,6 +1011,24 @@ fn march_cloud_layers(
         pass.set_pipeline(render_pipeline);
         pass.set_bind_group(0, &bind_group, &[view_offset.offset]);
         pass.draw(0..3, 0..1);
+    }
+    if let (Some((_, _, upsample_pipeline)), Some(upsample_bind_group)) =
+        (&upsample, &upsample_bind_group)
+    {
+        let mut pass = ctx
+            .command_encoder()
+            .begin_render_pass(&RenderPassDescriptor {
+                label: Some("cloud_upsample"),
+                color_attachments: &[Some(target.get_color_attachment())],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+        pass.set_pipeline(upsample_pipeline);
+        pass.set_bind_group(0, upsample_bind_group, &[view_offset.offset]);
+        pass.draw(0..3, 0..1);
+        stats.views_upsampled += 1;
     }
     ctx.command_encoder().pop_debug_group();
     time_span.end(ctx.command_encoder());
