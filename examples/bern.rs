@@ -44,6 +44,7 @@
 //! | `--photo-opacity X` | opacity of the photo overlay, 0–1 | 0.5 |
 //! | `--photo-wiper X` | fraction of the width, from the left, that shows the photo | 1 |
 //! | `--ev100 EV` | camera exposure | 14 (sunlit scenes; Bevy's atmosphere example uses 13) |
+//! | `--log-frame-times` | log the frame time and the cloud passes' GPU times every second | off |
 //! | `--no-cloud-shadows` | turn the cloud shadow map off (to compare, or to time its cost) | on |
 //! | `--dem PATH` | elevation file (ESRI ASCII grid or `GeoTIFF`, WGS 84 degrees) | `assets/terrain/bern_globe30s.asc` |
 //!
@@ -117,7 +118,7 @@ const SETTLE_FRAMES: u32 = 3;
 const USAGE: &str = "usage: bern [--camera gurten|bantiger] [--time RFC3339] [--headless] \
                      [--out PATH] [--width W] [--height H] [--frames N --step 10m] [--warmup N] \
                      [--photos DIR] [--photo-opacity 0..1] [--photo-wiper 0..1] [--dem PATH] \
-                     [--ev100 EV] [--no-cloud-shadows]";
+                     [--ev100 EV] [--no-cloud-shadows] [--log-frame-times]";
 
 fn main() -> AppExit {
     if std::env::args().any(|arg| arg == "--help" || arg == "-h") {
@@ -198,6 +199,20 @@ fn main() -> AppExit {
         #[cfg(feature = "inspector")]
         app.add_plugins(panel::PanelPlugin);
     }
+    if options.log_frame_times {
+        use bevy::{
+            diagnostic::{FrameTimeDiagnosticsPlugin, LogDiagnosticsPlugin},
+            render::diagnostic::RenderDiagnosticsPlugin,
+        };
+        // The inspector panel adds the first two already.
+        if !app.is_plugin_added::<FrameTimeDiagnosticsPlugin>() {
+            app.add_plugins(FrameTimeDiagnosticsPlugin::default());
+        }
+        if !app.is_plugin_added::<RenderDiagnosticsPlugin>() {
+            app.add_plugins(RenderDiagnosticsPlugin);
+        }
+        app.add_plugins(LogDiagnosticsPlugin::default());
+    }
     app.insert_resource(CloudShadows {
         enabled: options.cloud_shadows,
         ..default()
@@ -228,6 +243,8 @@ struct BernOptions {
     ev100: f32,
     /// Cast cloud shadows on the terrain.
     cloud_shadows: bool,
+    /// Log frame and render-pass times every second.
+    log_frame_times: bool,
 }
 
 fn parse_options(
@@ -246,6 +263,7 @@ fn parse_options(
             .join(DEM_ASSET),
         ev100: DEFAULT_EV100,
         cloud_shadows: true,
+        log_frame_times: false,
     };
     let mut warmup = None;
     let mut out_given = false;
@@ -266,6 +284,7 @@ fn parse_options(
             "--photo-wiper" => options.photo_wiper = parse_fraction(&value()?, arg)?,
             "--dem" => options.dem = PathBuf::from(value()?),
             "--no-cloud-shadows" => options.cloud_shadows = false,
+            "--log-frame-times" => options.log_frame_times = true,
             "--ev100" => {
                 let text = value()?;
                 options.ev100 = text

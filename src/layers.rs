@@ -341,6 +341,14 @@ impl DensityProfile {
         Self::smooth(&[(0.0, 0.0), (0.1, 1.0), (0.9, 1.0), (1.0, 0.0)])
     }
 
+    /// Ground fog: full density from the ground up, fading out over the upper half, so the fog
+    /// has a soft top and its density at eye level is the one the visibility gives
+    /// (Koschmieder). Used by the weather mapping's fog layer.
+    #[must_use]
+    pub fn fog() -> Self {
+        Self::smooth(&[(0.0, 1.0), (0.5, 1.0), (1.0, 0.0)])
+    }
+
     /// Altocumulus: small heaps like a shallow cumulus, in a thin mid-level layer.
     #[must_use]
     pub fn altocumulus() -> Self {

@@ -66,7 +66,7 @@ use std::ops::{Index, IndexMut};
 
 use bevy::prelude::*;
 
-use crate::layers::{CloudKind, CloudLayer, FarCoverage};
+use crate::layers::{CloudKind, CloudLayer, DensityProfile, FarCoverage};
 use crate::weather::{ForecastFormat, STANDARD_LEVELS_HPA, Variable, VariableSet, WeatherState};
 
 /// Heights of [`STANDARD_LEVELS_HPA`] (850, 700, 500, 300 hPa) in the ICAO standard atmosphere,
@@ -140,7 +140,8 @@ impl LayerSlot {
 
     /// The layer a slot holds before any forecast: [`LayerSlot::initial_kind`]'s defaults with
     /// coverage 0, so nothing shows until the forecast says so. The fog layer sits on the
-    /// ground, up to the default [`WeatherMapping::fog_top_m`].
+    /// ground, up to the default [`WeatherMapping::fog_top_m`], with the
+    /// [`DensityProfile::fog`] profile and no shape noise.
     #[must_use]
     pub fn initial_layer(self) -> CloudLayer {
         let mut layer = CloudLayer::new(self.initial_kind());
@@ -150,6 +151,10 @@ impl LayerSlot {
             layer.base_m = 0.0;
             layer.top_m = mapping.fog_top_m;
             layer.density = KOSCHMIEDER_CONSTANT / mapping.fog_default_visibility_m;
+            // Homogeneous from the ground up with a soft top: the extinction at eye level is
+            // the visibility's, and fog has no billows (patches come from the coverage).
+            layer.profile = DensityProfile::fog();
+            layer.shape_noise = 0.0;
         }
         layer
     }

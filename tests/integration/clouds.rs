@@ -511,3 +511,82 @@ fn far_weather_shows_toward_the_far_place() {
     assert!(mean_t[0] < 0.97, "north: mean T {}", mean_t[0]);
     assert_eq!(mean_t[1], 1.0, "south stays clear");
 }
+
+/// Fog from a forecast visibility `V`: a black target `V` away keeps 2 % contrast against the
+/// fog behind it, the meteorological definition of visibility (Koschmieder; WMO-No. 8).
+#[test]
+fn fog_visibility_gives_two_percent_contrast_at_the_visibility_distance() {
+    use bevy_cloudscape::weather::{UtcInstant, Variable, WeatherMapping, WeatherState};
+    let visibility = 800.0f32;
+    let mut state = WeatherState::empty(UtcInstant::from_unix_seconds(1_620_280_800));
+    state.values[Variable::Visibility as usize] = Some(visibility);
+    let mut fog = LayerSlot::Fog.initial_layer();
+    WeatherMapping::default()
+        .map(&state, 0.0)
+        .apply(LayerSlot::Fog, &mut fog);
+    assert!((fog.density - 3.912 / visibility).abs() < 1e-6 && fog.coverage == 1.0);
+
+    let size = UVec2::new(64, 16);
+    let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
+    // An unlit black box whose near face is `visibility` metres ahead, in the left half.
+    let target = {
+        let world = rig.app.world();
+        let mesh = world
+            .resource_mut::<Assets<Mesh>>()
+            .add(Cuboid::new(100.0, 20.0, 20.0));
+        let material = world
+            .resource_mut::<Assets<StandardMaterial>>()
+            .add(StandardMaterial {
+                base_color: Color::BLACK,
+                unlit: true,
+                ..default()
+            });
+        world
+            .spawn((
+                Mesh3d(mesh),
+                MeshMaterial3d(material),
+                // 0.7° to 7.8° left of the view's centre; the view is 16° wide.
+                Transform::from_xyz(-60.0, 2.0, -(visibility + 10.0)),
+            ))
+            .id()
+    };
+    rig.set_scene(&Scene {
+        name: "fog",
+        camera: Transform::from_xyz(0.0, 2.0, 0.0).looking_to(Vec3::NEG_Z, Vec3::Y),
+        sun_deg: (30.0, 150.0),
+        layers: vec![fog],
+        // The default preset: the contrast must hold with the early exit the game uses.
+        settings: VolumetricClouds {
+            jitter: false,
+            ..VolumetricClouds::MEDIUM
+        },
+    });
+    rig.app
+        .world()
+        .entity_mut(rig.camera)
+        .insert(Projection::Perspective(PerspectiveProjection {
+            fov: 4f32.to_radians(),
+            ..default()
+        }));
+    let (radiance, _) = rig.render(3);
+    let _ = target;
+    save_strip(
+        &output_dir().join("clouds_fog_target.png"),
+        size,
+        &[&radiance],
+    );
+    // Middle row: box on the left, open fog on the right, both at eye level.
+    let row = size.y / 2;
+    let at = |x: u32| luminance(&radiance[(row * size.x + x) as usize]);
+    let target_l = (4..12).map(at).sum::<f64>() / 8.0;
+    let fog_l = (size.x - 12..size.x - 4).map(at).sum::<f64>() / 8.0;
+    let contrast = (fog_l - target_l) / fog_l;
+    eprintln!(
+        "fog V = {visibility} m: target {target_l:.5}, fog {fog_l:.5}, contrast {contrast:.4}"
+    );
+    assert!(fog_l > 0.0, "the fog is lit");
+    assert!(
+        (contrast - 0.02).abs() <= 0.005,
+        "contrast at the visibility distance {contrast:.4}, expected 0.02 ± 0.005"
+    );
+}

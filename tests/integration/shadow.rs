@@ -86,6 +86,7 @@ fn shadow_map_matches_the_cpu_reference_and_clears_at_night() {
     let textures = CloudTextures::from_recipe(&small_recipe());
     let mut rig = CloudRig::new(UVec2::new(16, 16), Msaa::Off, small_recipe());
     rig.app.world().insert_resource(CloudShadows {
+        enabled: true,
         resolution: 48,
         extent_m: 16_000.0,
         steps: 8,
@@ -151,6 +152,7 @@ fn cloud_shadows_darken_only_the_direct_sun_on_lit_ground() {
     let size = UVec2::new(48, 48);
     let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
     rig.app.world().insert_resource(CloudShadows {
+        enabled: true,
         resolution: 64,
         extent_m: 8_000.0,
         steps: 8,

@@ -652,6 +652,9 @@ struct MarchRay {
     // exp(-optical_depth).
     transmittance: f32,
     radiance: vec3<f32>,
+    // The last cloudy step's source over its extinction: what a medium like it would add beyond
+    // an early stop (Rust: `Ray::tail`).
+    tail: vec3<f32>,
 }
 
 // Rust: `Ray::altitude`.
@@ -710,7 +713,9 @@ fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32) -> bool {
     // Hillaire 2016: the integral of T S over the step is T S dt (1 - exp(-x)) / x.
     let x = extinction * dt;
     let weight = (*ray).transmittance * dt * mean_step_transmittance(x);
-    (*ray).radiance += weight * (scattering * clouds.sun_illuminance.xyz * sun + ambient);
+    let source = scattering * clouds.sun_illuminance.xyz * sun + ambient;
+    (*ray).radiance += weight * source;
+    (*ray).tail = source / extinction;
     (*ray).optical_depth += x;
     (*ray).transmittance = exp(-(*ray).optical_depth);
     return true;
@@ -751,6 +756,10 @@ fn march_interval(ray: ptr<function, MarchRay>, start: f32, end: f32) -> bool {
         if march_step(ray, ta, tb) {
             empty = 0u;
             if (*ray).transmittance <= clouds.transmittance_cutoff {
+                // The light the rest of the medium would add, as if it went on like the last
+                // step; nothing behind shows through (Rust: `Ray::march_interval`).
+                (*ray).radiance += (*ray).transmittance * (*ray).tail;
+                (*ray).transmittance = 0.0;
                 return false;
             }
         } else {
@@ -790,6 +799,7 @@ fn march_clouds(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter:
         saturate(jitter),
         0.0,
         1.0,
+        vec3<f32>(0.0),
         vec3<f32>(0.0),
     );
     var t = 0.0;

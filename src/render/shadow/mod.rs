@@ -154,12 +154,13 @@ pub struct CloudShadowPlugin;
 impl Plugin for CloudShadowPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<CloudShadows>()
-            .register_type::<CloudShadows>()
-            .add_plugins(ExtractResourcePlugin::<CloudShadows>::default())
-            .add_systems(Update, place_cloud_shadow_map.after(CloudscapeSystems::Sun));
+            .register_type::<CloudShadows>();
+        // Without a renderer (a server, a test of the weather alone) there is nothing to shade.
         if app.get_sub_app(RenderApp).is_none() {
             return;
         }
+        app.add_plugins(ExtractResourcePlugin::<CloudShadows>::default())
+            .add_systems(Update, place_cloud_shadow_map.after(CloudscapeSystems::Sun));
         embedded_asset!(app, "shadow.wgsl");
         app.sub_app_mut(RenderApp)
             .init_resource::<CloudShadowStats>()
@@ -235,7 +236,7 @@ fn place_cloud_shadow_map(
     mut commands: Commands,
     settings: Res<CloudShadows>,
     map: Option<ResMut<CloudShadowMap>>,
-    mut images: ResMut<Assets<Image>>,
+    images: Option<ResMut<Assets<Image>>>,
     mut lights: Query<
         (
             Entity,
@@ -247,6 +248,9 @@ fn place_cloud_shadow_map(
     >,
     cameras: Query<(&Camera, &VolumetricClouds, &GlobalTransform)>,
 ) {
+    let Some(mut images) = images else {
+        return;
+    };
     let settings = settings.sanitized();
     let sun = lights
         .iter()
