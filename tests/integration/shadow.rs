@@ -90,7 +90,6 @@ fn shadow_map_matches_the_cpu_reference_and_clears_at_night() {
         resolution: 48,
         extent_m: 16_000.0,
         steps: 8,
-        ..default()
     });
     rig.set_scene(&shadow_scene((30.0, 180.0)));
     rig.app.run_frames(4);
@@ -156,7 +155,6 @@ fn cloud_shadows_darken_only_the_direct_sun_on_lit_ground() {
         resolution: 64,
         extent_m: 8_000.0,
         steps: 8,
-        ..default()
     });
     // No ambient light: the ground's radiance is then the direct sun alone, and the ratio of the
     // frames with and without shadows is the shadow map's transmittance.
