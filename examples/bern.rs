@@ -44,6 +44,7 @@
 //! | `--photo-opacity X` | opacity of the photo overlay, 0–1 | 0.5 |
 //! | `--photo-wiper X` | fraction of the width, from the left, that shows the photo | 1 |
 //! | `--ev100 EV` | camera exposure | 14 (sunlit scenes; Bevy's atmosphere example uses 13) |
+//! | `--no-clouds` | no `VolumetricClouds` on the camera: the same frame without clouds (CI compares the two) | clouds on |
 //! | `--log-frame-times` | log the frame time and the cloud passes' GPU times every second | off |
 //! | `--no-cloud-shadows` | turn the cloud shadow map off (to compare, or to time its cost) | on |
 //! | `--dem PATH` | elevation file (ESRI ASCII grid or `GeoTIFF`, WGS 84 degrees) | `assets/terrain/bern_globe30s.asc` |
@@ -118,7 +119,7 @@ const SETTLE_FRAMES: u32 = 3;
 const USAGE: &str = "usage: bern [--camera gurten|bantiger] [--time RFC3339] [--headless] \
                      [--out PATH] [--width W] [--height H] [--frames N --step 10m] [--warmup N] \
                      [--photos DIR] [--photo-opacity 0..1] [--photo-wiper 0..1] [--dem PATH] \
-                     [--ev100 EV] [--no-cloud-shadows] [--log-frame-times]";
+                     [--ev100 EV] [--no-cloud-shadows] [--no-clouds] [--log-frame-times]";
 
 fn main() -> AppExit {
     if std::env::args().any(|arg| arg == "--help" || arg == "-h") {
@@ -245,6 +246,8 @@ struct BernOptions {
     cloud_shadows: bool,
     /// Log frame and render-pass times every second.
     log_frame_times: bool,
+    /// Render clouds (false: the camera has no `VolumetricClouds`).
+    clouds: bool,
 }
 
 fn parse_options(
@@ -264,6 +267,7 @@ fn parse_options(
         ev100: DEFAULT_EV100,
         cloud_shadows: true,
         log_frame_times: false,
+        clouds: true,
     };
     let mut warmup = None;
     let mut out_given = false;
@@ -285,6 +289,7 @@ fn parse_options(
             "--dem" => options.dem = PathBuf::from(value()?),
             "--no-cloud-shadows" => options.cloud_shadows = false,
             "--log-frame-times" => options.log_frame_times = true,
+            "--no-clouds" => options.clouds = false,
             "--ev100" => {
                 let text = value()?;
                 options.ev100 = text
@@ -584,6 +589,10 @@ fn spawn_scene(
             IsDefaultUiCamera,
         ))
         .id();
+    if !options.clouds {
+        // The depth prepass and HDR that `VolumetricClouds` brought stay: only the clouds go.
+        commands.entity(camera).remove::<VolumetricClouds>();
+    }
     if let Some(error) = &terrain.error {
         commands.spawn((
             Node {

@@ -382,6 +382,45 @@ mod tests {
     }
 
     #[test]
+    fn hard_cases_stay_finite_and_in_range() {
+        let textures = blob_textures(16, 0.1);
+        let layer = blob_layer(1000.0, 1200.0, 0.05, 20_000.0);
+        let thick = MarchLayer {
+            extinction: 1e4,
+            coverage: 1.0,
+            ..layer.clone()
+        };
+        let thin = MarchLayer {
+            extinction: 1e-9,
+            coverage: 1.0,
+            ..layer.clone()
+        };
+        for elevation in [90.0, 60.0, 5.0, 0.5, 0.01] {
+            for camera_altitude in [0.0, 1000.0, 1100.0, 1200.0, 50_000.0] {
+                let settings = MarchSettings {
+                    camera_altitude_m: camera_altitude,
+                    ..settings_with_sun(elevation, 123.0)
+                };
+                for position in [
+                    [0.0; 3],
+                    [1e5, -3.0, -2e5],
+                    [0.0, 1100.0 - camera_altitude, 0.0],
+                    [-4e6, 0.0, 1e6],
+                ] {
+                    for layers in [[layer.clone()], [thick.clone()], [thin.clone()]] {
+                        let t =
+                            shadow_transmittance(&textures, &settings, &layers, position, 16, 50.0);
+                        assert!(
+                            t.is_finite() && (0.0..=1.0).contains(&t),
+                            "T {t} at elevation {elevation}, camera {camera_altitude}, {position:?}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
     fn texel_layout_matches_bevy_light_texture_projection() {
         let frame = ShadowMapFrame {
             centre_m: [10.0, 0.0, 0.0],
