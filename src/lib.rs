@@ -10,8 +10,12 @@
 //! | weather | [`weather`] | meteoblue / Open-Meteo files to a [`weather::Forecast`], sampled into a [`weather::WeatherState`] |
 //! | sky | [`sky`] | the scene clock, and where the sun is for a place and a UTC instant (NREL SPA) |
 //! | layers | [`layers`] | [`layers::CloudLayer`]: altitude, coverage, density, kind and profile, wind |
-//! | CPU reference | [`reference`] | f64 twin of the GPU noise: the truth the GPU is tested against |
+//! | CPU reference | [`reference`] | f64 twins of the GPU noise, march and shadow map: the truth the GPU is tested against, and CPU queries |
 //! | noise | [`render::noise`] | compute pass filling tileable 3D cloud-noise textures once |
+//! | march | [`render::march`] | fullscreen ray-march of the layers per camera, stopped by the depth prepass, composited in HDR |
+//! | shadow | [`render::shadow`] | the cloud shadow map along the sun, applied to the sun's light on every `StandardMaterial` |
+//! | precipitation | [`precipitation`] | rain and snow near the camera, from the layers' rain rate |
+//! | terrain | [`terrain`] | DEM readers and a terrain mesh builder (for the Bern demo and your own scenes) |
 //!
 //! Compatible with Bevy 0.19.
 #![deny(missing_docs)]
@@ -22,6 +26,7 @@ use bevy::{
 };
 
 pub mod layers;
+pub mod precipitation;
 pub mod reference;
 pub mod render;
 pub mod sky;
@@ -31,6 +36,9 @@ pub mod weather;
 /// Everything a game needs to add clouds, in one import.
 pub mod prelude {
     pub use crate::layers::{CloudKind, CloudLayer, DensityProfile};
+    pub use crate::precipitation::{
+        PrecipitationPlugin, PrecipitationSettings, PrecipitationState,
+    };
     pub use crate::render::{
         CloudQuality, VolumetricClouds,
         march::CloudMarchPlugin,
@@ -63,6 +71,7 @@ impl PluginGroup for CloudscapePlugin {
             .add(render::noise::CloudNoisePlugin)
             .add(render::march::CloudMarchPlugin)
             .add(render::shadow::CloudShadowPlugin)
+            .add(precipitation::PrecipitationPlugin)
     }
 }
 
