@@ -180,6 +180,9 @@ pub struct HeadlessProgress {
     pub shot: u32,
     frames: u32,
     written: u32,
+    /// A progress bar on the terminal for time-lapses (indicatif draws nothing when stderr is
+    /// not a terminal, as in CI).
+    bar: Option<indicatif::ProgressBar>,
 }
 
 impl Default for HeadlessProgress {
@@ -189,6 +192,7 @@ impl Default for HeadlessProgress {
             shot: 0,
             frames: 0,
             written: 0,
+            bar: None,
         }
     }
 }
@@ -249,12 +253,19 @@ fn capture_after_frames(
     let out = if count == 1 {
         args.out.clone()
     } else {
-        if progress.shot == 0
-            && let Err(e) = std::fs::create_dir_all(&args.out)
-        {
-            error!("cannot create {}: {e}", args.out.display());
-            commands.write_message(AppExit::error());
-            return;
+        if progress.shot == 0 {
+            if let Err(e) = std::fs::create_dir_all(&args.out) {
+                error!("cannot create {}: {e}", args.out.display());
+                commands.write_message(AppExit::error());
+                return;
+            }
+            let bar = indicatif::ProgressBar::new(u64::from(count));
+            if let Ok(style) = indicatif::ProgressStyle::with_template(
+                "{bar:40} {pos}/{len} frames, {elapsed} elapsed, about {eta} left",
+            ) {
+                bar.set_style(style);
+            }
+            progress.bar = Some(bar);
         }
         args.out.join(format!("frame_{:03}.png", progress.shot))
     };
@@ -272,8 +283,14 @@ fn capture_after_frames(
             {
                 Ok(()) => {
                     progress.written += 1;
-                    info!("wrote {} ({}/{count})", out.display(), progress.written);
+                    match &progress.bar {
+                        Some(bar) if !bar.is_hidden() => bar.inc(1),
+                        _ => info!("wrote {} ({}/{count})", out.display(), progress.written),
+                    }
                     if progress.written == count {
+                        if let Some(bar) = &progress.bar {
+                            bar.finish();
+                        }
                         exit.write(AppExit::Success);
                     }
                 }
