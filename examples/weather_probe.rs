@@ -14,6 +14,15 @@
 //!
 //! A file that cannot be read exits with status 2 and one line on stderr naming the file, the
 //! key and the index.
+//!
+//! ```text
+//! cargo run --release --example weather_probe -- FILE --bench
+//! ```
+//!
+//! instead times the parser and the sampler on FILE and prints one JSON object: `file_bytes`,
+//! `steps` (time steps in the file), `parse_ms_median` (median of 101 parses from memory) and
+//! `sample_ns_median` (median over 101 batches of 1000 samples at instants spread over the data;
+//! a sample fills a fixed-size `WeatherState` and does not allocate).
 
 use std::process::ExitCode;
 
@@ -27,12 +36,14 @@ struct Args {
     near: String,
     far: Vec<String>,
     at: UtcInstant,
+    bench: bool,
 }
 
 fn parse_args() -> Result<Args, String> {
-    let usage = "usage: weather_probe FILE [FAR_FILE...] --at RFC3339_INSTANT";
+    let usage = "usage: weather_probe FILE [FAR_FILE...] --at RFC3339_INSTANT | FILE --bench";
     let mut files = Vec::new();
     let mut at = None;
+    let mut bench = false;
     let mut it = std::env::args().skip(1);
     while let Some(arg) = it.next() {
         if arg == "--at" {
@@ -43,6 +54,8 @@ fn parse_args() -> Result<Args, String> {
                 text.parse::<UtcInstant>()
                     .map_err(|e| format!("--at {text:?}: {e}"))?,
             );
+        } else if arg == "--bench" {
+            bench = true;
         } else if arg.starts_with("--") {
             return Err(format!("unknown option {arg:?} ({usage})"));
         } else {
@@ -53,7 +66,12 @@ fn parse_args() -> Result<Args, String> {
     Ok(Args {
         near: files.next().ok_or(usage)?,
         far: files.collect(),
-        at: at.ok_or(format!("--at is required ({usage})"))?,
+        at: match (at, bench) {
+            (Some(at), _) => at,
+            (None, true) => UtcInstant::from_unix_seconds(0),
+            (None, false) => return Err(format!("--at is required ({usage})")),
+        },
+        bench,
     })
 }
 
@@ -152,8 +170,58 @@ fn run(args: &Args) -> Result<Value, String> {
     Ok(Value::Object(object))
 }
 
+/// Median of `values` (sorted in place).
+fn median(values: &mut [f64]) -> f64 {
+    values.sort_by(f64::total_cmp);
+    values[values.len() / 2]
+}
+
+fn bench(path: &str) -> Result<Value, String> {
+    use std::time::Instant;
+    let bytes = std::fs::read(path).map_err(|e| format!("{path}: {e}"))?;
+    let forecast = Forecast::from_slice(&bytes, None).map_err(|e| format!("{path}: {e}"))?;
+    let mut parse_ms: Vec<f64> = (0..101)
+        .map(|_| {
+            let start = Instant::now();
+            let parsed = Forecast::from_slice(std::hint::black_box(&bytes), None);
+            let elapsed = start.elapsed().as_secs_f64() * 1e3;
+            std::hint::black_box(parsed.is_ok());
+            elapsed
+        })
+        .collect();
+    let times = &forecast.times;
+    let (first, last) = match (times.first(), times.last()) {
+        (Some(first), Some(last)) => (first.unix_seconds() as f64, last.unix_seconds() as f64),
+        _ => return Err(format!("{path}: no time steps")),
+    };
+    let mut sampler = Sampler::new();
+    let mut sample_ns: Vec<f64> = (0..101)
+        .map(|batch| {
+            let start = Instant::now();
+            for k in 0..1000 {
+                let u = ((batch * 1000 + k) as f64 * 0.618_034).fract();
+                let state = sampler.sample_unix_seconds(&forecast, first + u * (last - first));
+                std::hint::black_box(&state);
+            }
+            start.elapsed().as_secs_f64() * 1e9 / 1000.0
+        })
+        .collect();
+    Ok(json!({
+        "file_bytes": bytes.len(),
+        "steps": times.len(),
+        "parse_ms_median": median(&mut parse_ms),
+        "sample_ns_median": median(&mut sample_ns),
+    }))
+}
+
 fn main() -> ExitCode {
-    match parse_args().and_then(|args| run(&args)) {
+    match parse_args().and_then(|args| {
+        if args.bench {
+            bench(&args.near)
+        } else {
+            run(&args)
+        }
+    }) {
         Ok(value) => {
             println!("{value}");
             ExitCode::SUCCESS

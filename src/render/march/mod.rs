@@ -16,12 +16,22 @@
 //! main (opaque and transparent) passes and before post-processing, like Bevy's volumetric fog;
 //! transparent objects are therefore covered by clouds in front of the opaque depth behind them.
 //!
+//! At [`VolumetricClouds::resolution_scale`] below 1 the march renders `(L, T)` and the
+//! distance each ray stopped at into targets of the reduced size, and `upsample.wgsl` composites
+//! them: each full-resolution pixel blends its four nearest low-resolution texels with bilinear
+//! weights times `e^(−|d − dᵢ| / (0.05 · min(d, dᵢ)))`, so texels whose rays stopped at other
+//! geometry (the sky beside a hill, a hill in front of the sky) barely count.
+//! ([`CloudPassStats::views_upsampled`] counts these views.)
+//!
 //! # Inputs, from one source
 //!
 //! [`march_inputs`] turns a camera, its [`VolumetricClouds`] settings, the sun and the
 //! [`CloudLayer`]s into the reference's [`MarchSettings`] and [`MarchLayer`]s (f64), and the
 //! GPU structs are converted from those with `From`. The CPU reference renderer and the GPU
-//! therefore see the same numbers, rounded to f32 only at the end.
+//! therefore see the same numbers, rounded to f32 only at the end. A layer with rain
+//! ([`CloudLayer::rain_mm_per_h`]) brings a second layer under it, from the ground to its base:
+//! the rain shafts (see `rain_shaft`). A layer's far coverages
+//! ([`CloudLayer::far_coverage`]) become [`MarchLayer::far`], relative to the camera.
 
 use std::borrow::Cow;
 
@@ -239,12 +249,23 @@ pub fn march_inputs<'a>(
         DVec3::Y
     };
 
-    let march_layers: Vec<MarchLayer> = layers
-        .into_iter()
-        .map(|(layer, drift)| (layer.sanitized(), drift.copied().unwrap_or_default()))
-        .filter(|(layer, _)| layer.is_visible())
-        .map(|(layer, drift)| march_layer(settings, &layer, &drift, position))
-        .collect();
+    let mut march_layers = Vec::new();
+    for (layer, drift) in layers {
+        let layer = layer.sanitized();
+        if !layer.is_visible() {
+            continue;
+        }
+        let march = march_layer(
+            settings,
+            &layer,
+            &drift.copied().unwrap_or_default(),
+            position,
+        );
+        if let Some(rain) = rain_shaft(&layer, &march) {
+            march_layers.push(rain);
+        }
+        march_layers.push(march);
+    }
 
     let mut march = MarchSettings {
         planet_radius_m: radius,
@@ -349,6 +370,32 @@ fn march_layer(
     march.set_profile(&points);
     march_far_coverage(&mut march, layer, camera);
     march
+}
+
+/// The rain falling from a raining layer as a layer of its own, from the ground to the cloud
+/// base: where the cloud has coverage, extinction
+/// [`rain_extinction_per_m`](crate::precipitation::rain_extinction_per_m) of its rain rate, no
+/// shape noise (straight shafts), the cloud's weather pattern (and far coverages), and a
+/// scattering albedo of one half (the diffracted half of the extinction goes straight on). Seen
+/// from afar these are the grey shafts under showers; from inside, the rain's haze. `None` for a
+/// dry layer or one on the ground.
+fn rain_shaft(layer: &CloudLayer, cloud: &MarchLayer) -> Option<MarchLayer> {
+    let extinction = crate::precipitation::rain_extinction_per_m(layer.rain_mm_per_h);
+    if !(extinction > 0.0 && cloud.base_m > 0.0) {
+        return None;
+    }
+    let mut rain = MarchLayer {
+        base_m: 0.0,
+        top_m: cloud.base_m,
+        extinction: f64::from(extinction),
+        shape_strength: 0.0,
+        detail_erosion: 0.0,
+        precipitation: 1.0,
+        skew: [0.0; 2],
+        ..cloud.clone()
+    };
+    rain.set_profile(&[]);
+    Some(rain)
 }
 
 /// Fills [`MarchLayer::far`] from the layer's far coverages. Along the noise axes (x east, z
@@ -1104,6 +1151,71 @@ mod tests {
             1e-3,
             None,
             [(&clear_here, None)],
+            0,
+        );
+        assert_eq!(layers.len(), 1);
+    }
+
+    #[test]
+    fn rain_falls_as_shafts_under_raining_layers() {
+        use crate::reference::{
+            noise::NoiseRecipe,
+            render::{CloudTextures, march_clouds},
+        };
+        let layer = CloudLayer {
+            coverage: 1.0,
+            rain_mm_per_h: 1.0,
+            weather_driven: false,
+            ..CloudLayer::new(CloudKind::Stratus)
+        };
+        let camera = GlobalTransform::from_xyz(0.0, 2.0, 0.0);
+        let (march, layers) = march_inputs(
+            &VolumetricClouds::default(),
+            &camera,
+            1e-3,
+            None,
+            [(&layer, None)],
+            0,
+        );
+        assert_eq!(layers.len(), 2, "the rain shaft and the cloud");
+        let rain = &layers[0];
+        assert_eq!((rain.base_m, rain.top_m), (0.0, f64::from(layer.base_m)));
+        let sigma = f64::from(crate::precipitation::rain_extinction_per_m(1.0));
+        assert!((rain.extinction - sigma).abs() < 1e-12);
+        // A level ray under the cloud base through 3 km of rain: Beer–Lambert.
+        let textures = CloudTextures::from_recipe(&NoiseRecipe {
+            base_size: 8,
+            detail_size: 8,
+            weather_size: 16,
+            ..Default::default()
+        });
+        let result = march_clouds(
+            &textures,
+            &march,
+            &layers,
+            march.camera_altitude_m,
+            march.camera_up,
+            [1.0, 0.0, 0.0],
+            3_000.0,
+            0.5,
+        );
+        let expected = (-sigma * 3_000.0).exp();
+        assert!(
+            (result.transmittance - expected).abs() < 1e-3 * expected,
+            "{} vs {expected}",
+            result.transmittance
+        );
+        // A dry layer adds nothing.
+        let dry = CloudLayer {
+            rain_mm_per_h: 0.0,
+            ..layer
+        };
+        let (_, layers) = march_inputs(
+            &VolumetricClouds::default(),
+            &camera,
+            1e-3,
+            None,
+            [(&dry, None)],
             0,
         );
         assert_eq!(layers.len(), 1);

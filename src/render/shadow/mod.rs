@@ -92,7 +92,8 @@ use crate::{
 pub struct CloudShadows {
     /// Cast cloud shadows. Default true.
     pub enabled: bool,
-    /// Texels per side of the map, 16–4096. Default 512 (78 m texels over 40 km).
+    /// Texels per side of the map, 16–4096. Default 256 (156 m texels over 40 km: a 1 km
+    /// cumulus shadow spans six).
     pub resolution: u32,
     /// Side of the square the map covers, metres, centred on the camera. Default 40 000.
     pub extent_m: f32,
@@ -104,7 +105,7 @@ impl Default for CloudShadows {
     fn default() -> Self {
         Self {
             enabled: true,
-            resolution: 512,
+            resolution: 256,
             extent_m: 40_000.0,
             steps: 12,
         }
