@@ -3,7 +3,12 @@
 //!
 //! ```text
 //! cargo run --example frame_check -- WITH_CLOUDS.png WITHOUT_CLOUDS.png
+//! cargo run --example frame_check -- --same A.png B.png
 //! ```
+//!
+//! With `--same` it checks instead that two frames show the same picture (mean absolute
+//! difference below 2/255 per channel): CI's test that the Bern photo overlay at full opacity
+//! shows the photo.
 //!
 //! The sky band (the top fifth of the frame) must differ: clouds are drawn there (mean absolute
 //! difference above 4/255 per channel). The near terrain (the bottom tenth) must not differ: the
@@ -93,13 +98,37 @@ fn run(with_path: &str, without_path: &str) -> Result<Result<String, String>, St
     })
 }
 
+/// `--same`: the two frames match.
+fn same(a_path: &str, b_path: &str) -> Result<Result<String, String>, String> {
+    let load = |path: &str| {
+        image::open(path)
+            .map(|i| i.to_rgb8())
+            .map_err(|e| format!("cannot read {path}: {e}"))
+    };
+    let (a, b) = (load(a_path)?, load(b_path)?);
+    if a.dimensions() != b.dimensions() {
+        return Err(format!("{a_path} and {b_path} differ in size"));
+    }
+    let (mean, max) = difference(&a, &b, 0..a.height());
+    let report = format!("mean |Δ| {mean:.2}/255, max {max}/255");
+    Ok(if mean < 2.0 {
+        Ok(report)
+    } else {
+        Err(format!("the frames differ: {report}"))
+    })
+}
+
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let [with, without] = args.as_slice() else {
-        eprintln!("usage: frame_check WITH_CLOUDS.png WITHOUT_CLOUDS.png");
-        return ExitCode::from(2);
+    let result = match args.as_slice() {
+        [flag, a, b] if flag == "--same" => same(a, b),
+        [with, without] => run(with, without),
+        _ => {
+            eprintln!("usage: frame_check WITH_CLOUDS.png WITHOUT_CLOUDS.png | --same A.png B.png");
+            return ExitCode::from(2);
+        }
     };
-    match run(with, without) {
+    match result {
         Ok(Ok(report)) => {
             println!("frame_check: ok: {report}");
             ExitCode::SUCCESS
