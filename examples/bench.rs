@@ -2,7 +2,7 @@
 //! converged reference, and reports the time and the error of each.
 //!
 //! ```text
-//! cargo run --release --example bench -- [--width W] [--height H] [--frames N] [--out DIR] [--no-jitter] [--effects-only]
+//! cargo run --release --example bench -- [--width W] [--height H] [--frames N] [--out DIR] [--no-jitter] [--effects-only] [--error-budget]
 //! ```
 //!
 //! Scenes: cumulus at noon, overcast stratus, sunset behind altocumulus, the camera inside a
@@ -25,6 +25,10 @@
 //!   and without each optional effect (today the cloud shadow map, 512² by default), on the
 //!   cumulus scene with `MEDIUM`.
 //!
+//! `--error-budget` instead prints, for the cumulus and sunset scenes, the error of `HIGH` with one
+//! knob changed at a time, on the CPU reference renderer (48×27, small noise, no jitter) against
+//! 512 primary and 16 light steps: which knob the error comes from.
+//!
 //! On software Vulkan (lavapipe) the times are CPU times: compare the ratios, not the
 //! milliseconds.
 
@@ -38,7 +42,13 @@ use std::{
 
 use bevy::prelude::*;
 use bevy_cloudscape::prelude::*;
-use common::scenes::{CloudRig, Scene, luminance, save_strip, showcase_scenes};
+use bevy_cloudscape::{
+    reference::render::{CloudTextures, march_clouds},
+    render::march::{CloudSun, march_inputs},
+};
+use common::scenes::{
+    CloudRig, Scene, luminance, save_strip, showcase_scenes, small_recipe, sun_direction,
+};
 
 struct Args {
     size: UVec2,
@@ -48,17 +58,20 @@ struct Args {
     no_jitter: bool,
     /// Measure only the optional effects (`effects.csv`), not the presets.
     effects_only: bool,
+    /// Print where the error comes from ([`error_budget`]) instead of timing anything.
+    error_budget: bool,
 }
 
 fn parse_args() -> Result<Args, String> {
     let usage = "usage: bench [--width W] [--height H] [--frames N] [--out DIR] [--no-jitter] \
-                 [--effects-only]";
+                 [--effects-only] [--error-budget]";
     let mut args = Args {
         size: UVec2::new(160, 90),
         frames: 5,
         out: PathBuf::from("bench"),
         no_jitter: false,
         effects_only: false,
+        error_budget: false,
     };
     let mut it = std::env::args().skip(1);
     while let Some(arg) = it.next() {
@@ -75,6 +88,7 @@ fn parse_args() -> Result<Args, String> {
             "--frames" => args.frames = number("--frames")?,
             "--no-jitter" => args.no_jitter = true,
             "--effects-only" => args.effects_only = true,
+            "--error-budget" => args.error_budget = true,
             "--out" => {
                 args.out = it
                     .next()
@@ -208,11 +222,17 @@ fn measure_effects(rig: &mut CloudRig, frames: u32) -> String {
 
 /// (relative RMSE, largest absolute difference) of linear luminance.
 fn errors(image: &[[f32; 3]], reference: &[[f32; 3]]) -> (f64, f64) {
+    let lum = |pixels: &[[f32; 3]]| pixels.iter().map(luminance).collect::<Vec<f64>>();
+    errors_of(&lum(image), &lum(reference))
+}
+
+/// (relative RMSE, largest absolute difference) of two images of one value per pixel.
+fn errors_of(image: &[f64], reference: &[f64]) -> (f64, f64) {
     let n = reference.len() as f64;
-    let mean = reference.iter().map(luminance).sum::<f64>() / n;
+    let mean = reference.iter().sum::<f64>() / n;
     let (mut sum, mut max) = (0.0, 0.0f64);
     for (a, b) in image.iter().zip(reference) {
-        let d = luminance(a) - luminance(b);
+        let d = a - b;
         sum += d * d;
         max = max.max(d.abs());
     }
@@ -273,7 +293,95 @@ fn plot(rows: &[Row], path: &std::path::Path) -> Result<(), String> {
         .map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
+/// Where `scene`'s error comes from: the CPU reference at 48×27 (no GPU, small noise, no jitter)
+/// with primary steps, light steps, cut-off and step growth changed one at a time, each against
+/// 512 primary and 16 light steps. Prints relative RMSE and mean bias of `L · 10⁻⁴ + 0.25 T`.
+fn error_budget(scene: &Scene) {
+    let textures = CloudTextures::from_recipe(&small_recipe());
+    let (w, h) = (48u32, 27u32);
+    // The rig's camera and sun.
+    let fov = 60f32.to_radians();
+    let sun = CloudSun {
+        direction: sun_direction(scene.sun_deg),
+        illuminance_rgb: [100_000.0; 3],
+        through_atmosphere: false,
+    };
+    let image = |primary: u32, light: u32, cutoff: f32, growth: f32| -> Vec<f64> {
+        let settings = VolumetricClouds {
+            primary_steps: primary,
+            light_steps: light,
+            transmittance_cutoff: cutoff,
+            step_growth: growth,
+            jitter: false,
+            ..VolumetricClouds::MEDIUM
+        };
+        let (march, layers) = march_inputs(
+            &settings,
+            &GlobalTransform::from(scene.camera),
+            f64::from(fov) / f64::from(h),
+            Some(&sun),
+            scene.layers.iter().map(|layer| (layer, None)),
+            0,
+        );
+        let t = (0.5 * fov).tan();
+        (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .map(|(x, y)| {
+                let ndc = Vec2::new(
+                    (x as f32 + 0.5) / w as f32 * 2.0 - 1.0,
+                    1.0 - (y as f32 + 0.5) / h as f32 * 2.0,
+                );
+                let local = Vec3::new(ndc.x * t * w as f32 / h as f32, ndc.y * t, -1.0);
+                let direction = (scene.camera.rotation * local).normalize();
+                let r = march_clouds(
+                    &textures,
+                    &march,
+                    &layers,
+                    march.camera_altitude_m,
+                    march.camera_up,
+                    direction.as_dvec3().to_array(),
+                    f64::INFINITY,
+                    0.5,
+                );
+                let l = r.radiance.map(|v| v as f32);
+                luminance(&l) * 1e-4 + 0.25 * r.transmittance
+            })
+            .collect()
+    };
+    let reference = image(512, 16, 0.0, 2.0e-5);
+    let mean = reference.iter().sum::<f64>() / reference.len() as f64;
+    println!("{}: against 512 primary and 16 light steps", scene.name);
+    for (name, primary, light, cutoff, growth) in [
+        ("HIGH", 96, 8, 0.01, 2.0e-5),
+        ("HIGH, 16 light", 96, 16, 0.01, 2.0e-5),
+        ("HIGH, 512 primary", 512, 8, 0.01, 2.0e-5),
+        ("HIGH, no cut-off", 96, 8, 0.0, 2.0e-5),
+        ("HIGH, even steps", 96, 8, 0.01, 0.0),
+        ("ULTRA", 192, 12, 0.002, 2.0e-5),
+        ("512 primary, 12 light", 512, 12, 0.0, 2.0e-5),
+    ] {
+        let test = image(primary, light, cutoff, growth);
+        let (rel_rmse, _) = errors_of(&test, &reference);
+        let bias = (test.iter().sum::<f64>() - reference.iter().sum::<f64>())
+            / reference.len() as f64
+            / mean;
+        println!(
+            "{name:>24}: relative RMSE {:6.2} %, bias {:+6.2} %",
+            100.0 * rel_rmse,
+            100.0 * bias
+        );
+    }
+}
+
 fn run(args: &Args) -> Result<(), String> {
+    if args.error_budget {
+        for scene in showcase_scenes() {
+            if matches!(scene.name, "cumulus_noon" | "sunset_behind_clouds") {
+                error_budget(&scene);
+            }
+        }
+        return Ok(());
+    }
     std::fs::create_dir_all(args.out.join("images"))
         .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
     let mut rig = CloudRig::new(args.size, Msaa::Off, default());

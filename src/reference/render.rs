@@ -977,6 +977,31 @@ pub fn layer_density(
     saturate(remap(covered, erosion, 1.0, 0.0, 1.0)) * layer.extinction
 }
 
+/// Sum of [`layer_density`] over `layers` at one point: the extinction every sample of the march,
+/// the light march and the shadow map sees. WGSL twin: `total_extinction`.
+pub fn total_extinction(
+    textures: &CloudTextures,
+    layers: &[MarchLayer],
+    horizontal_m: [f64; 2],
+    altitude_m: f64,
+    footprint_m: f64,
+    with_detail: bool,
+) -> f64 {
+    layers
+        .iter()
+        .map(|layer| {
+            layer_density(
+                textures,
+                layer,
+                horizontal_m,
+                altitude_m,
+                footprint_m,
+                with_detail,
+            )
+        })
+        .sum()
+}
+
 /// Scattering albedo of a layer: 1 (cloud droplets barely absorb) lowered by precipitation
 /// ([`PRECIPITATION_ABSORPTION`]). WGSL twin: `scattering_albedo`.
 pub fn scattering_albedo(layer: &MarchLayer) -> f64 {
@@ -1105,19 +1130,14 @@ pub fn sun_optical_depth(
         let point = add(position_m, scale(sun, s));
         let altitude = altitude_along_ray(altitude_m, mu_sun, s, radius);
         let horizontal = [dot(point, axes[0]), dot(point, axes[1])];
-        let extinction: f64 = layers
-            .iter()
-            .map(|layer| {
-                layer_density(
-                    textures,
-                    layer,
-                    horizontal,
-                    altitude,
-                    footprint_m.max(ds),
-                    true,
-                )
-            })
-            .sum();
+        let extinction = total_extinction(
+            textures,
+            layers,
+            horizontal,
+            altitude,
+            footprint_m.max(ds),
+            true,
+        );
         optical_depth += extinction * ds;
     }
     optical_depth
@@ -1209,12 +1229,14 @@ impl Ray<'_> {
         let altitude = self.altitude(t);
         let horizontal = self.horizontal(t);
         let footprint = t * self.settings.pixel_angle_rad;
-        self.layers
-            .iter()
-            .map(|layer| {
-                layer_density(self.textures, layer, horizontal, altitude, footprint, false)
-            })
-            .sum()
+        total_extinction(
+            self.textures,
+            self.layers,
+            horizontal,
+            altitude,
+            footprint,
+            false,
+        )
     }
 
     /// One full-detail step over `[ta, tb]`, sampled at the jittered point; returns whether it
@@ -1432,10 +1454,7 @@ pub fn density_at(
     let altitude = altitude_of(settings, position_m);
     let axes = horizontal_axes(settings.camera_up);
     let horizontal = [dot(position_m, axes[0]), dot(position_m, axes[1])];
-    layers
-        .iter()
-        .map(|layer| layer_density(textures, layer, horizontal, altitude, 0.0, true))
-        .sum()
+    total_extinction(textures, layers, horizontal, altitude, 0.0, true)
 }
 
 /// Whether `position_m` (relative to the camera) is inside cloud: [`density_at`] > 0.

@@ -30,7 +30,7 @@
 
 use super::render::{
     CloudTextures, MarchLayer, MarchSettings, NO_HIT, add, altitude_along_ray, altitude_of, dot,
-    horizontal_axes, intersect_altitude_sphere, layer_density, next_cloud_interval, scale,
+    horizontal_axes, intersect_altitude_sphere, next_cloud_interval, scale, total_extinction,
 };
 
 /// Most steps per layer interval of the shadow march ([`shadow_optical_depth`]). WGSL twin:
@@ -126,19 +126,14 @@ pub fn shadow_optical_depth(
             let point = add(origin, scale(sun, s));
             let point_altitude = altitude_along_ray(origin_altitude, origin_mu, s, radius);
             let horizontal = [dot(point, axes[0]), dot(point, axes[1])];
-            let extinction: f64 = layers
-                .iter()
-                .map(|layer| {
-                    layer_density(
-                        textures,
-                        layer,
-                        horizontal,
-                        point_altitude,
-                        footprint_m,
-                        true,
-                    )
-                })
-                .sum();
+            let extinction = total_extinction(
+                textures,
+                layers,
+                horizontal,
+                point_altitude,
+                footprint_m,
+                true,
+            );
             optical_depth += extinction * dt;
         }
         t = b;

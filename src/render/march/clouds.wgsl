@@ -505,6 +505,15 @@ fn layer_density(layer: CloudLayerGpu, horizontal_m: vec2<f32>, altitude_m: f32,
     return saturate(remap(covered, erosion, 1.0, 0.0, 1.0)) * layer.extinction;
 }
 
+// Sum of `layer_density` over the layers at one point. Rust: `total_extinction`.
+fn total_extinction(horizontal_m: vec2<f32>, altitude_m: f32, footprint_m: f32, with_detail: bool) -> f32 {
+    var extinction = 0.0;
+    for (var i = 0u; i < cloud_layer_count(); i++) {
+        extinction += layer_density(cloud_layers[i], horizontal_m, altitude_m, footprint_m, with_detail);
+    }
+    return extinction;
+}
+
 // Rust: `scattering_albedo`.
 fn scattering_albedo(layer: CloudLayerGpu) -> f32 {
     return 1.0 - PRECIPITATION_ABSORPTION * saturate(layer.precipitation);
@@ -584,7 +593,6 @@ fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f
     }
     let axes = horizontal_axes(up);
     let n = f32(steps);
-    let count = cloud_layer_count();
     var optical_depth = 0.0;
     for (var k = 0u; k < steps; k++) {
         let u0 = f32(k) / n;
@@ -596,11 +604,7 @@ fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f
         let point = position_m + sun * s;
         let altitude = altitude_along_ray(altitude_m, mu_sun, s, radius);
         let horizontal = vec2<f32>(dot(point, axes.x), dot(point, axes.z));
-        var extinction = 0.0;
-        for (var i = 0u; i < count; i++) {
-            extinction += layer_density(cloud_layers[i], horizontal, altitude, max(footprint_m, ds), true);
-        }
-        optical_depth += extinction * ds;
+        optical_depth += total_extinction(horizontal, altitude, max(footprint_m, ds), true) * ds;
     }
     return optical_depth;
 }
@@ -666,13 +670,7 @@ fn ray_altitude(ray: ptr<function, MarchRay>, t: f32) -> f32 {
 fn cheap_extinction(ray: ptr<function, MarchRay>, t: f32) -> f32 {
     let altitude = ray_altitude(ray, t);
     let horizontal = (*ray).horizontal_direction * t;
-    let footprint = t * clouds.pixel_angle_rad;
-    let count = cloud_layer_count();
-    var extinction = 0.0;
-    for (var i = 0u; i < count; i++) {
-        extinction += layer_density(cloud_layers[i], horizontal, altitude, footprint, false);
-    }
-    return extinction;
+    return total_extinction(horizontal, altitude, t * clouds.pixel_angle_rad, false);
 }
 
 // One full-detail step over [ta, tb] sampled at the jittered point; true if it found cloud.
@@ -871,11 +869,7 @@ fn shadow_optical_depth(position_m: vec3<f32>, steps: u32, footprint_m: f32) -> 
             let point = origin + sun * s;
             let point_altitude = altitude_along_ray(origin_altitude, origin_mu, s, radius);
             let horizontal = vec2<f32>(dot(point, axes.x), dot(point, axes.z));
-            var extinction = 0.0;
-            for (var l = 0u; l < count; l++) {
-                extinction += layer_density(cloud_layers[l], horizontal, point_altitude, footprint_m, true);
-            }
-            optical_depth += extinction * dt;
+            optical_depth += total_extinction(horizontal, point_altitude, footprint_m, true) * dt;
         }
         t = interval.y;
     }

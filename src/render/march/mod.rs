@@ -1088,6 +1088,18 @@ mod tests {
     use crate::layers::{CloudKind, FarCoverage};
     use crate::reference::render::layer_coverage;
 
+    /// The march inputs of `layer` alone for a default camera setup at `camera`, no sun.
+    fn inputs(layer: &CloudLayer, camera: &GlobalTransform) -> (MarchSettings, Vec<MarchLayer>) {
+        march_inputs(
+            &VolumetricClouds::default(),
+            camera,
+            1e-3,
+            None,
+            [(layer, None)],
+            0,
+        )
+    }
+
     #[test]
     fn gpu_structs_match_the_shader_layout() {
         assert_eq!(GpuCloudUniforms::min_size().get(), 160);
@@ -1107,14 +1119,7 @@ mod tests {
             ..CloudLayer::new(CloudKind::Cumulus)
         };
         let camera = GlobalTransform::from_xyz(2_000.0, 5.0, 0.0);
-        let (_, layers) = march_inputs(
-            &VolumetricClouds::default(),
-            &camera,
-            1e-3,
-            None,
-            [(&layer, None)],
-            0,
-        );
+        let (_, layers) = inputs(&layer, &camera);
         let march = &layers[0];
         assert_eq!(march.far_count, 1);
         // Horizontal offsets are relative to the camera along (east, south).
@@ -1145,14 +1150,7 @@ mod tests {
             ..layer.clone()
         };
         assert!(clear_here.is_visible());
-        let (_, layers) = march_inputs(
-            &VolumetricClouds::default(),
-            &camera,
-            1e-3,
-            None,
-            [(&clear_here, None)],
-            0,
-        );
+        let (_, layers) = inputs(&clear_here, &camera);
         assert_eq!(layers.len(), 1);
     }
 
@@ -1169,14 +1167,7 @@ mod tests {
             ..CloudLayer::new(CloudKind::Stratus)
         };
         let camera = GlobalTransform::from_xyz(0.0, 2.0, 0.0);
-        let (march, layers) = march_inputs(
-            &VolumetricClouds::default(),
-            &camera,
-            1e-3,
-            None,
-            [(&layer, None)],
-            0,
-        );
+        let (march, layers) = inputs(&layer, &camera);
         assert_eq!(layers.len(), 2, "the rain shaft and the cloud");
         let rain = &layers[0];
         assert_eq!((rain.base_m, rain.top_m), (0.0, f64::from(layer.base_m)));
@@ -1210,134 +1201,7 @@ mod tests {
             rain_mm_per_h: 0.0,
             ..layer
         };
-        let (_, layers) = march_inputs(
-            &VolumetricClouds::default(),
-            &camera,
-            1e-3,
-            None,
-            [(&dry, None)],
-            0,
-        );
+        let (_, layers) = inputs(&dry, &camera);
         assert_eq!(layers.len(), 1);
-    }
-
-    /// Where the presets' error comes from: the cumulus bench scene (or, with the environment
-    /// variable `ERROR_BUDGET_SUNSET` set, the sunset scene) on the CPU reference at 48×27, no
-    /// jitter, against 512 primary and 16 light steps, with primary and light steps varied one
-    /// at a time. Run with `cargo test --all-features --lib -- --ignored error_budget
-    /// --nocapture`.
-    #[test]
-    #[ignore = "an experiment that prints a table, not a check"]
-    fn error_budget() {
-        use crate::reference::{
-            noise::NoiseRecipe,
-            render::{CloudTextures, march_clouds},
-        };
-        let recipe = NoiseRecipe {
-            base_size: 32,
-            detail_size: 16,
-            weather_size: 64,
-            ..Default::default()
-        };
-        let textures = CloudTextures::from_recipe(&recipe);
-        let (w, h) = (48u32, 27u32);
-        let fov = 60f32.to_radians();
-        let sunset = std::env::var_os("ERROR_BUDGET_SUNSET").is_some();
-        let pitch = if sunset { 6f32 } else { 25f32 }.to_radians();
-        let camera = Transform::from_xyz(0.0, 2.0, 0.0)
-            .looking_to(Vec3::new(0.0, pitch.sin(), -pitch.cos()), Vec3::Y);
-        let (el, az) = if sunset {
-            (4f32, 5f32)
-        } else {
-            (60f32, 150f32)
-        };
-        let (el, az) = (el.to_radians(), az.to_radians());
-        let sun = CloudSun {
-            direction: Vec3::new(az.sin() * el.cos(), el.sin(), -az.cos() * el.cos()),
-            illuminance_rgb: [100_000.0; 3],
-            through_atmosphere: false,
-        };
-        let layer = CloudLayer {
-            coverage: if sunset { 0.6 } else { 0.5 },
-            weather_driven: false,
-            ..CloudLayer::new(if sunset {
-                CloudKind::Altocumulus
-            } else {
-                CloudKind::Cumulus
-            })
-        };
-        let image = |primary: u32, light: u32, cutoff: f32, growth: f32| -> Vec<f64> {
-            let settings = VolumetricClouds {
-                primary_steps: primary,
-                light_steps: light,
-                transmittance_cutoff: cutoff,
-                step_growth: growth,
-                jitter: false,
-                ..VolumetricClouds::MEDIUM
-            };
-            let (march, layers) = march_inputs(
-                &settings,
-                &GlobalTransform::from(camera),
-                f64::from(fov) / f64::from(h),
-                Some(&sun),
-                [(&layer, None)],
-                0,
-            );
-            let mut out = Vec::new();
-            for y in 0..h {
-                for x in 0..w {
-                    let ndc = Vec2::new(
-                        (x as f32 + 0.5) / w as f32 * 2.0 - 1.0,
-                        1.0 - (y as f32 + 0.5) / h as f32 * 2.0,
-                    );
-                    let t = (0.5 * fov).tan();
-                    let local = Vec3::new(ndc.x * t * w as f32 / h as f32, ndc.y * t, -1.0);
-                    let direction = (camera.rotation * local).normalize();
-                    let r = march_clouds(
-                        &textures,
-                        &march,
-                        &layers,
-                        march.camera_altitude_m,
-                        march.camera_up,
-                        direction.as_dvec3().to_array(),
-                        f64::INFINITY,
-                        0.5,
-                    );
-                    let l =
-                        0.2126 * r.radiance[0] + 0.7152 * r.radiance[1] + 0.0722 * r.radiance[2];
-                    out.push(l * 1e-4 + 0.25 * r.transmittance);
-                }
-            }
-            out
-        };
-        let reference = image(512, 16, 0.0, 2.0e-5);
-        let mean = reference.iter().sum::<f64>() / reference.len() as f64;
-        for (name, primary, light, cutoff, growth) in [
-            ("HIGH", 96, 8, 0.01, 2.0e-5),
-            ("HIGH, 16 light", 96, 16, 0.01, 2.0e-5),
-            ("HIGH, 512 primary", 512, 8, 0.01, 2.0e-5),
-            ("HIGH, no cut-off", 96, 8, 0.0, 2.0e-5),
-            ("HIGH, even steps", 96, 8, 0.01, 0.0),
-            ("ULTRA", 192, 12, 0.002, 2.0e-5),
-            ("512 primary, 12 light", 512, 12, 0.0, 2.0e-5),
-        ] {
-            let test = image(primary, light, cutoff, growth);
-            let rmse = (test
-                .iter()
-                .zip(&reference)
-                .map(|(a, b)| (a - b).powi(2))
-                .sum::<f64>()
-                / test.len() as f64)
-                .sqrt()
-                / mean;
-            let bias = (test.iter().sum::<f64>() - reference.iter().sum::<f64>())
-                / reference.len() as f64
-                / mean;
-            eprintln!(
-                "{name:>24}: relative RMSE {:6.2} %, bias {:+6.2} %",
-                100.0 * rmse,
-                100.0 * bias
-            );
-        }
     }
 }
