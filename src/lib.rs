@@ -41,6 +41,7 @@ pub mod prelude {
     };
     pub use crate::render::{
         CloudQuality, VolumetricClouds,
+        haze::Haze,
         march::CloudMarchPlugin,
         noise::{CloudNoisePlugin, CloudNoiseSettings},
         shadow::{CloudShadowPlugin, CloudShadows},

@@ -15,6 +15,7 @@ use bevy::{
 use bevy_cloudscape::{
     prelude::*,
     reference::{
+        haze::{ShadowMapImage, composite, march_haze},
         noise::NoiseRecipe,
         render::{CloudTextures, march_clouds, ray_start_jitter},
     },
@@ -269,6 +270,15 @@ impl CloudRig {
 
     /// The CPU reference image for the current scene: (L·exposure, T) per pixel.
     pub fn reference(&mut self, textures: &CloudTextures) -> (Vec<[f32; 3]>, Vec<f32>) {
+        self.reference_with_shadow(textures, None)
+    }
+
+    /// [`CloudRig::reference`] with the haze reading `shadow` for its light shafts.
+    pub fn reference_with_shadow(
+        &mut self,
+        textures: &CloudTextures,
+        shadow: Option<&ShadowMapImage>,
+    ) -> (Vec<[f32; 3]>, Vec<f32>) {
         let view = self.extracted();
         let size = self.app.size;
         let world = self.app.world();
@@ -293,16 +303,30 @@ impl CloudRig {
                 let near = world_from_clip * Vec4::new(ndc.x, ndc.y, 1.0, 1.0);
                 let direction = (near.truncate() / near.w - position).normalize();
                 let pixel = [f64::from(x) + 0.5, f64::from(y) + 0.5];
-                let result = march_clouds(
+                let jitter = ray_start_jitter(&view.settings, pixel);
+                let direction = direction.as_dvec3().to_array();
+                let clouds = march_clouds(
                     textures,
                     &view.settings,
                     &view.layers,
                     view.settings.camera_altitude_m,
                     view.settings.camera_up,
-                    direction.as_dvec3().to_array(),
+                    direction,
                     f64::INFINITY,
-                    ray_start_jitter(&view.settings, pixel),
+                    jitter,
                 );
+                let haze = march_haze(
+                    &view.settings,
+                    &view.haze,
+                    view.settings.camera_altitude_m,
+                    view.settings.camera_up,
+                    direction,
+                    f64::INFINITY,
+                    clouds.distance_m,
+                    jitter,
+                    shadow,
+                );
+                let result = composite(&haze, &clouds);
                 radiance.push(result.radiance.map(|v| (v * exposure) as f32));
                 transmittance.push(result.transmittance as f32);
             }

@@ -377,6 +377,11 @@ pub struct MarchResult {
     pub radiance: [f64; 3],
     /// Fraction of the light behind the clouds that reaches the camera, 0–1.
     pub transmittance: f64,
+    /// Where along the ray the medium hides what is behind it, metres: the mean distance of the
+    /// steps weighted by the opacity each adds (`T_before − T_after`); infinity when the ray met
+    /// no medium. The haze in front of this distance veils the clouds and the haze behind it is
+    /// veiled by them ([`crate::reference::haze::composite`]).
+    pub distance_m: f64,
 }
 
 impl MarchResult {
@@ -384,6 +389,7 @@ impl MarchResult {
     pub const CLEAR: Self = Self {
         radiance: [0.0; 3],
         transmittance: 1.0,
+        distance_m: f64::INFINITY,
     };
 }
 
@@ -595,7 +601,7 @@ fn saturate(x: f64) -> f64 {
 }
 
 /// `x > 0`, false for NaN: `!is_positive(x)` rejects zero, negative and NaN alike.
-fn is_positive(x: f64) -> bool {
+pub(super) fn is_positive(x: f64) -> bool {
     x > 0.0
 }
 
@@ -1208,6 +1214,9 @@ struct Ray<'a> {
     /// The last cloudy step's source over its extinction, `S / σt`: the radiance a medium like
     /// it would add beyond the point where the march stops early (see [`Ray::march_interval`]).
     tail: [f64; 3],
+    /// Σ (opacity a step adds) · (its distance), and Σ opacity: [`MarchResult::distance_m`].
+    opacity_distance: f64,
+    opacity: f64,
 }
 
 impl Ray<'_> {
@@ -1222,6 +1231,21 @@ impl Ray<'_> {
 
     fn horizontal(&self, t: f64) -> [f64; 2] {
         self.horizontal_direction.map(|c| c * t)
+    }
+
+    /// Records that the medium at distance `t` hid `opacity` more of what is behind it.
+    fn add_opacity(&mut self, opacity: f64, t: f64) {
+        self.opacity_distance += opacity * t;
+        self.opacity += opacity;
+    }
+
+    /// [`MarchResult::distance_m`] of the march so far.
+    fn distance(&self) -> f64 {
+        if is_positive(self.opacity) {
+            self.opacity_distance / self.opacity
+        } else {
+            f64::INFINITY
+        }
     }
 
     /// Sum of the cheap (base-only) extinction of every layer at distance `t`.
@@ -1299,8 +1323,10 @@ impl Ray<'_> {
             *radiance += weight * source;
             *tail = source / extinction;
         }
+        let before = self.transmittance;
         self.optical_depth += x;
         self.transmittance = (-self.optical_depth).exp();
+        self.add_opacity(before - self.transmittance, t);
         true
     }
 
@@ -1347,6 +1373,7 @@ impl Ray<'_> {
                     for (radiance, tail) in self.radiance.iter_mut().zip(self.tail) {
                         *radiance += self.transmittance * tail;
                     }
+                    self.add_opacity(self.transmittance, boundary(k + 1));
                     self.transmittance = 0.0;
                     return false;
                 }
@@ -1407,6 +1434,8 @@ pub fn march_clouds(
         transmittance: 1.0,
         radiance: [0.0; 3],
         tail: [0.0; 3],
+        opacity_distance: 0.0,
+        opacity: 0.0,
     };
     let mut t = 0.0;
     for _ in 0..=2 * layers.len() {
@@ -1419,6 +1448,7 @@ pub fn march_clouds(
     MarchResult {
         radiance: ray.radiance,
         transmittance: ray.transmittance,
+        distance_m: ray.distance(),
     }
 }
 
@@ -1557,9 +1587,16 @@ pub fn homogeneous_slab(settings: &MarchSettings, layer: &MarchLayer) -> MarchRe
                 + bottom * opacity
                 + (top - bottom) * ambient_shape)
     });
+    // The opacity-weighted mean depth into the slab, `H (1/x − 1/(eˣ − 1))`, a series for small x.
+    let depth = if x < 1e-3 {
+        thickness * (0.5 - x / 12.0)
+    } else {
+        thickness * (1.0 / x - 1.0 / x.exp_m1())
+    };
     MarchResult {
         radiance,
         transmittance,
+        distance_m: layer.base_m - settings.camera_altitude_m.min(layer.base_m) + depth,
     }
 }
 
@@ -1823,6 +1860,8 @@ mod tests {
                     let exact = homogeneous_slab(&settings, &layer);
                     let t_error = relative_error(marched.transmittance, exact.transmittance);
                     assert!(t_error < 1e-12, "T: {marched:?} vs {exact:?}");
+                    let d_error = relative_error(marched.distance_m, exact.distance_m);
+                    assert!(d_error < 0.01, "distance: {marched:?} vs {exact:?}");
                     for c in 0..3 {
                         let error = relative_error(marched.radiance[c], exact.radiance[c]);
                         worst[index] = worst[index].max(error);

@@ -25,7 +25,7 @@
 //! | `convective_precipitation` | Convective: present, coverage, rain; Low: kind | a cumulonimbus layer appears at ≥ 1 mm/h (or on a thunder code); coverage = 0.15 + 0.45 · max(1 − e^(−rate/5 mm/h), low cover) | an hourly, grid-mean shower rate of 1 mm/h means intense local cells |
 //! | `pictocode` / WMO `weather_code` | Convective, Fog, Low: kind | thunder 10–12, 27–30 (WMO 95–99) → cumulonimbus; fog 16–18 (WMO 45, 48) → fog coverage ≥ 0.8 and stratus; showers 31–32 (WMO 80–86) → cumulus; steady precipitation 23–26, 33–35 (WMO 51–77) → stratus | the codes say what the model's variables only imply (`shared/formats/meteoblue.md`) |
 //! | `fog_probability` | Fog: coverage | coverage = (p − 0.2) / 0.8, clamped to 0–1 | below 20 % the fog would be noise on a clear view |
-//! | `visibility` | Fog: coverage, density | coverage from 0 at 5 km (mist) to 1 at 1 km (fog), faded out by rain; density = 3.912 / min(visibility, 1 km) | Koschmieder: a 2 % contrast threshold gives σ = ln 50 / V = 3.912 / V; WMO fog is visibility < 1 km |
+//! | `visibility` | Fog: coverage, density; [`Haze`](crate::render::haze::Haze) | coverage from 0 at 5 km (mist) to 1 at 1 km (fog), faded out by rain; density = 3.912 / min(visibility, 1 km). Haze visibility = max(visibility, 5 km) | Koschmieder: a 2 % contrast threshold gives σ = ln 50 / V = 3.912 / V; WMO fog is visibility < 1 km; above 5 km the air is haze, not fog |
 //! | `precipitation` | all but High: `precipitation`, `rain_mm_per_h`; Mid: thickness | darkening = 1 − e^(−rate/2.5 mm/h); rain goes to the lowest covered layer (the cumulonimbus takes the convective part); raining altostratus thickens downward by up to 1 km | 2.5 mm/h is where AMS "light" rain ends (moderate darkens 63 %); seed 000 §6.2: precipitation drives cloud colour and the rain particles |
 //! | `windspeed`, `winddirection` (10 m) | every layer without level wind: wind | v(z) = v₁₀ · (z / 10 m)^(1/7) at the layer's mid-height | the 1/7 power law (Hellmann; Peterson & Hennessey 1978) |
 //! | wind at 850 / 700 / 500 / 300 hPa | Low / Mid / High / Convective: wind | Low 850 hPa; Mid interpolated between 700 and 500 hPa by height; High 300 hPa; Convective: the mean of all levels | the air at cloud altitude carries the cloud; a storm moves with the mean 850–300 hPa wind (its steering flow) |
@@ -820,6 +820,22 @@ impl MappedWeather {
         layer.sanitize();
     }
 
+    /// The visibility the haze should have, metres ([`Haze::visibility_m`]): the forecast's,
+    /// but at least [`WeatherMapping::mist_visibility_m`], below which the fog layer carries
+    /// the rest of the extinction (so the two never count the same air twice). `None` when the
+    /// forecast has no usable visibility: the haze keeps its previous value.
+    ///
+    /// [`Haze::visibility_m`]: crate::render::haze::Haze::visibility_m
+    #[must_use]
+    pub fn haze_visibility_m(&self) -> Option<f32> {
+        let floor = if self.mapping.mist_visibility_m.is_finite() {
+            self.mapping.mist_visibility_m.max(1.0)
+        } else {
+            1.0
+        };
+        self.inputs.visibility.map(|v| v.max(floor))
+    }
+
     /// [`MappedWeather::apply`] to every slot of `layers`.
     pub fn apply_all(&self, layers: &mut WeatherLayers) {
         for slot in LayerSlot::ALL {
@@ -1241,6 +1257,7 @@ pub(crate) fn map_weather_onto_layers(
     forecasts: Res<Assets<super::Forecast>>,
     source: Option<Res<super::WeatherSource>>,
     mut layers: Query<(&LayerSlot, &mut CloudLayer)>,
+    haze: Option<ResMut<crate::render::haze::Haze>>,
     mut last_warnings: Local<Vec<String>>,
 ) {
     if !current.is_changed() && !mapping.as_ref().is_some_and(|m| m.is_changed()) {
@@ -1261,6 +1278,12 @@ pub(crate) fn map_weather_onto_layers(
         |m| *m,
     );
     let mapped = rules.map(&near.state, near.place.elevation_m as f32);
+    if let (Some(mut haze), Some(visibility)) = (haze, mapped.haze_visibility_m())
+        && haze.weather_driven
+        && haze.visibility_m != visibility
+    {
+        haze.visibility_m = visibility;
+    }
     // Far places: their own mapping, of which only the coverage is used (seed 000 §4.5: the
     // distant weather shows on the horizon toward its place). Heights are above each place's
     // own ground.
@@ -1395,6 +1418,49 @@ mod tests {
             manual.far_coverage.is_empty(),
             "play-mode layers are left alone"
         );
+    }
+
+    #[test]
+    fn visibility_sets_the_haze_and_a_gap_keeps_it() {
+        use crate::render::haze::Haze;
+        use crate::weather::{CurrentWeather, Place, PlaceWeather};
+        let place = |state: WeatherState| PlaceWeather {
+            place: Place {
+                name: "Bern".into(),
+                latitude_deg: 47.0,
+                longitude_deg: 7.4,
+                elevation_m: f64::from(BERN_M),
+            },
+            scene_position: Vec3::ZERO,
+            state,
+        };
+        let mut app = App::new();
+        app.insert_resource(CurrentWeather {
+            near: Some(place(with(fair(), Variable::Visibility, Some(24_000.0)))),
+            far: vec![],
+        })
+        .init_resource::<Haze>()
+        .init_resource::<Assets<crate::weather::Forecast>>()
+        .add_systems(Update, map_weather_onto_layers);
+        app.update();
+        assert_eq!(app.world().resource::<Haze>().visibility_m, 24_000.0);
+        // Below the mist limit the fog layer takes over; the haze stops at 5 km.
+        app.world_mut().resource_mut::<CurrentWeather>().near =
+            Some(place(with(fair(), Variable::Visibility, Some(800.0))));
+        app.update();
+        assert_eq!(app.world().resource::<Haze>().visibility_m, 5_000.0);
+        // A missing value keeps the last good one, never a wall of haze or none.
+        app.world_mut().resource_mut::<CurrentWeather>().near =
+            Some(place(with(fair(), Variable::Visibility, None)));
+        app.update();
+        assert_eq!(app.world().resource::<Haze>().visibility_m, 5_000.0);
+        // Hand-set haze is left alone.
+        app.world_mut().resource_mut::<Haze>().weather_driven = false;
+        app.world_mut().resource_mut::<Haze>().visibility_m = 70_000.0;
+        app.world_mut().resource_mut::<CurrentWeather>().near =
+            Some(place(with(fair(), Variable::Visibility, Some(9_000.0))));
+        app.update();
+        assert_eq!(app.world().resource::<Haze>().visibility_m, 70_000.0);
     }
 
     /// A fair afternoon: every variable the mapping reads, with little weather.

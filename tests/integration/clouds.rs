@@ -590,3 +590,136 @@ fn fog_visibility_gives_two_percent_contrast_at_the_visibility_distance() {
         "contrast at the visibility distance {contrast:.4}, expected 0.02 ± 0.005"
     );
 }
+
+/// Haze from a visibility `V` above the fog range, on the GPU: a black target `V` away keeps
+/// Koschmieder's 2 % contrast against the haze horizon beside it (less the clear air's share,
+/// which Bevy's atmosphere draws), and the pass runs for haze alone, with no cloud layer.
+#[test]
+fn haze_visibility_gives_koschmieder_contrast_at_the_visibility_distance() {
+    use bevy_cloudscape::reference::haze::CLEAR_AIR_EXTINCTION_PER_M;
+    let visibility = 5_000.0f32;
+    let size = UVec2::new(64, 16);
+    let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
+    // A uniform haze (a scale height far above the view), as the definition assumes.
+    rig.app.world().insert_resource(Haze {
+        scale_height_m: 1.0e6,
+        ..Haze::with_visibility(visibility)
+    });
+    {
+        let world = rig.app.world();
+        let mesh = world
+            .resource_mut::<Assets<Mesh>>()
+            .add(Cuboid::new(600.0, 120.0, 20.0));
+        let material = world
+            .resource_mut::<Assets<StandardMaterial>>()
+            .add(StandardMaterial {
+                base_color: Color::BLACK,
+                unlit: true,
+                ..default()
+            });
+        // 0.7° to 7.6° left of the view's centre (the view is 16° wide), near face at V.
+        world.spawn((
+            Mesh3d(mesh),
+            MeshMaterial3d(material),
+            Transform::from_xyz(-360.0, 2.0, -(visibility + 10.0)),
+        ));
+    }
+    rig.set_scene(&Scene {
+        name: "haze",
+        // Half a degree up, so the middle row's rays clear the ground (a level ray from 2 m
+        // that dips 0.1° meets it 1 km away) and pass 35 m up the target's face.
+        camera: Transform::from_xyz(0.0, 2.0, 0.0)
+            .looking_to(Vec3::new(0.0, 0.5f32.to_radians().tan(), -1.0), Vec3::Y),
+        // The sun near the zenith lights every level ray at the same phase angle, so the haze
+        // beside the target is the haze in front of it (with a low sun, the forward-peaked
+        // phase makes the two differ by several per cent across the view).
+        sun_deg: (88.0, 0.0),
+        layers: vec![],
+        settings: VolumetricClouds {
+            jitter: false,
+            ..VolumetricClouds::MEDIUM
+        },
+    });
+    rig.app
+        .world()
+        .entity_mut(rig.camera)
+        .insert(Projection::Perspective(PerspectiveProjection {
+            fov: 4f32.to_radians(),
+            // Frustum culling stops at `far`; the target is 5 km away.
+            far: 20_000.0,
+            ..default()
+        }));
+    let before = rig.views_marched();
+    let (radiance, _) = rig.render(3);
+    assert!(rig.views_marched() > before, "haze alone runs the pass");
+    save_strip(
+        &output_dir().join("clouds_haze_target.png"),
+        size,
+        &[&radiance],
+    );
+    let row = size.y / 2;
+    let at = |x: u32| luminance(&radiance[(row * size.x + x) as usize]);
+    let target_l = (4..12).map(at).sum::<f64>() / 8.0;
+    let haze_l = (size.x - 12..size.x - 4).map(at).sum::<f64>() / 8.0;
+    let contrast = (haze_l - target_l) / haze_l;
+    // The haze's share of 3.912 / V: e^(−(3.912/V − σ_clear) V).
+    let expected = (-(3.912 - CLEAR_AIR_EXTINCTION_PER_M * f64::from(visibility))).exp();
+    eprintln!(
+        "haze V = {visibility} m: target {target_l:.5}, horizon {haze_l:.5}, contrast \
+         {contrast:.4} (expected {expected:.4})"
+    );
+    assert!(haze_l > 0.0, "the haze is lit");
+    assert!(
+        (contrast - expected).abs() <= 0.005,
+        "contrast at the visibility distance {contrast:.4}, expected {expected:.4} ± 0.005"
+    );
+}
+
+/// Clouds seen through haze: the GPU's clouds-then-haze composite against the CPU twin, and the
+/// haze veils the distant clouds (their contrast drops against the clear-air render).
+#[test]
+fn haze_veils_distant_clouds_like_the_cpu_reference() {
+    let size = UVec2::new(64, 36);
+    let textures = CloudTextures::from_recipe(&small_recipe());
+    let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
+    let scene = Scene {
+        name: "haze_cumulus",
+        camera: looking(Vec3::new(0.0, 2.0, 0.0), 6.0, 0.0),
+        sun_deg: (35.0, 150.0),
+        layers: vec![layer(CloudKind::Cumulus, 0.5)],
+        settings: settings(64),
+    };
+    rig.set_scene(&scene);
+    let (clear_l, _) = rig.render(3);
+    rig.app
+        .world()
+        .insert_resource(Haze::with_visibility(12_000.0));
+    let (gpu_l, gpu_t) = rig.render(3);
+    let (cpu_l, cpu_t) = rig.reference(&textures);
+    save_strip(
+        &output_dir().join("clouds_haze_cumulus.png"),
+        size,
+        &[&clear_l, &gpu_l, &cpu_l],
+    );
+    let error = relative_rmse(&gpu_l, &cpu_l);
+    let t_error = gpu_t
+        .iter()
+        .zip(&cpu_t)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max);
+    eprintln!("haze over cumulus: relative RMSE {error:.4}, max |ΔT| {t_error:.4}");
+    assert!(error <= 0.03, "relative RMSE {error}");
+    assert!(t_error <= 0.02, "max |ΔT| {t_error}");
+    // The haze changed the picture: the spread of luminance (cloud against gap) shrinks.
+    let spread = |image: &[[f32; 3]]| {
+        let values: Vec<f64> = image.iter().map(luminance).collect();
+        let mean = values.iter().sum::<f64>() / values.len() as f64;
+        (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / values.len() as f64).sqrt() / mean
+    };
+    let (clear, hazy) = (spread(&clear_l), spread(&gpu_l));
+    eprintln!("relative spread of luminance: clear {clear:.3}, hazy {hazy:.3}");
+    assert!(
+        hazy < 0.8 * clear,
+        "haze lowers the contrast: {hazy} vs {clear}"
+    );
+}

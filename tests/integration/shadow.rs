@@ -253,3 +253,77 @@ fn cloud_shadows_darken_only_the_direct_sun_on_lit_ground() {
     assert!(lo < 0.5 && hi > 0.95, "{lo} {hi}");
     assert!(mean_error < 0.02, "mean error {mean_error}");
 }
+
+/// Light shafts: the haze reads the sun's transmittance from the cloud shadow map. The GPU
+/// frame matches the CPU twin fed the same (read-back) map, and not the twin that shades the
+/// haze with the clouds' mean transmittance instead, so the map really reaches the haze.
+#[test]
+fn light_shafts_follow_the_cloud_shadow_map() {
+    use bevy_cloudscape::{reference::haze::ShadowMapImage, render::haze::CloudShadowFrame};
+    let size = UVec2::new(64, 36);
+    let textures = CloudTextures::from_recipe(&small_recipe());
+    let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
+    rig.app.world().insert_resource(CloudShadows {
+        enabled: true,
+        resolution: 128,
+        extent_m: 30_000.0,
+        steps: 8,
+    });
+    rig.app
+        .world()
+        .insert_resource(Haze::with_visibility(8_000.0));
+    // Under broken cumulus, looking 30° left of a low sun.
+    let scene = Scene {
+        name: "shafts",
+        camera: looking(Vec3::new(0.0, 100.0, 0.0), 8.0, 210.0),
+        sun_deg: (12.0, 240.0),
+        layers: vec![layer(CloudKind::Cumulus, 0.45)],
+        settings: settings(48),
+    };
+    rig.set_scene(&scene);
+    let (gpu_l, _) = rig.render(4);
+    let (map_size, map) = read_shadow_map(&mut rig);
+    let (darkest, brightest) = map
+        .iter()
+        .fold((1.0f64, 0.0f64), |(lo, hi), &t| (lo.min(t), hi.max(t)));
+    assert!(
+        darkest < 0.3 && brightest > 0.95,
+        "the map holds shadows and gaps"
+    );
+    let frame = rig
+        .app
+        .render_world()
+        .get_resource::<CloudShadowFrame>()
+        .expect("the shadow map was marched this frame")
+        .clone();
+    assert_eq!(frame.frame.size, map_size);
+    let camera_m = rig
+        .app
+        .world()
+        .get::<GlobalTransform>(rig.camera)
+        .unwrap()
+        .translation()
+        .as_dvec3();
+    let image = ShadowMapImage {
+        frame: frame.relative_to(camera_m),
+        texels: map,
+    };
+    let (shafts_l, _) = rig.reference_with_shadow(&textures, Some(&image));
+    let (flat_l, _) = rig.reference(&textures);
+    save_strip(
+        &output_dir().join("shadow_light_shafts_gpu_cpu_flat.png"),
+        size,
+        &[&gpu_l, &shafts_l, &flat_l],
+    );
+    let with_map = relative_rmse(&gpu_l, &shafts_l);
+    let without_map = relative_rmse(&gpu_l, &flat_l);
+    eprintln!(
+        "light shafts: relative RMSE against the CPU with the map {with_map:.4}, with the mean \
+         shade {without_map:.4}"
+    );
+    assert!(with_map <= 0.03, "relative RMSE {with_map}");
+    assert!(
+        without_map > 2.0 * with_map,
+        "the shafts change the picture: {without_map} vs {with_map}"
+    );
+}

@@ -659,6 +659,24 @@ struct MarchRay {
     // The last cloudy step's source over its extinction: what a medium like it would add beyond
     // an early stop (Rust: `Ray::tail`).
     tail: vec3<f32>,
+    // Sum of (opacity a step adds) * (its distance), and sum of opacity (Rust: `Ray::add_opacity`).
+    opacity_distance: f32,
+    opacity: f32,
+}
+
+// What a view ray sees of the clouds. Rust: `MarchResult`.
+struct CloudMarch {
+    // rgb in-scattered radiance (before exposure), a view transmittance.
+    colour: vec4<f32>,
+    // Opacity-weighted mean distance of the cloud, m; FAR_AWAY without cloud
+    // (Rust: `MarchResult::distance_m`).
+    distance: f32,
+}
+
+// Rust: `Ray::add_opacity`.
+fn add_opacity(ray: ptr<function, MarchRay>, opacity: f32, t: f32) {
+    (*ray).opacity_distance += opacity * t;
+    (*ray).opacity += opacity;
 }
 
 // Rust: `Ray::altitude`.
@@ -714,8 +732,10 @@ fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32) -> bool {
     let source = scattering * clouds.sun_illuminance.xyz * sun + ambient;
     (*ray).radiance += weight * source;
     (*ray).tail = source / extinction;
+    let before = (*ray).transmittance;
     (*ray).optical_depth += x;
     (*ray).transmittance = exp(-(*ray).optical_depth);
+    add_opacity(ray, before - (*ray).transmittance, t);
     return true;
 }
 
@@ -757,6 +777,7 @@ fn march_interval(ray: ptr<function, MarchRay>, start: f32, end: f32) -> bool {
                 // The light the rest of the medium would add, as if it went on like the last
                 // step; nothing behind shows through (Rust: `Ray::march_interval`).
                 (*ray).radiance += (*ray).transmittance * (*ray).tail;
+                add_opacity(ray, (*ray).transmittance, tb);
                 (*ray).transmittance = 0.0;
                 return false;
             }
@@ -771,18 +792,18 @@ fn march_interval(ray: ptr<function, MarchRay>, start: f32, end: f32) -> bool {
     return true;
 }
 
-// Marches one view ray: returns vec4(in-scattered radiance RGB, view transmittance).
+// Marches one view ray: the in-scattered radiance, the view transmittance and the cloud's distance.
 // h: camera altitude above the ground (m); up: unit local vertical at the camera; direction: unit
 // view ray (world); t_max: distance to the scene along the ray (FAR_AWAY or more for the sky);
 // jitter: sample offset within each step, 0-1 (`ray_start_jitter`). Visits only the intervals
 // where the ray crosses active layers (stopped at the ground), at most 2 * layers + 1 of them.
 // Radiance is before exposure. Rust: `march_clouds`.
-fn march_clouds(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter: f32) -> vec4<f32> {
+fn march_clouds(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter: f32) -> CloudMarch {
     let radius = clouds.planet_radius_m;
     let mu = clamp(dot(direction, up), -1.0, 1.0);
     let t_end = min(t_max, ground_distance(h, mu, radius));
     if !(t_end > 0.0) {
-        return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+        return CloudMarch(vec4<f32>(0.0, 0.0, 0.0, 1.0), FAR_AWAY);
     }
     let axes = horizontal_axes(up);
     let sun = clouds.sun_illuminance.xyz;
@@ -799,6 +820,8 @@ fn march_clouds(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter:
         1.0,
         vec3<f32>(0.0),
         vec3<f32>(0.0),
+        0.0,
+        0.0,
     );
     var t = 0.0;
     let intervals = 2u * cloud_layer_count() + 1u;
@@ -809,7 +832,11 @@ fn march_clouds(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter:
         }
         t = interval.y;
     }
-    return vec4<f32>(ray.radiance, ray.transmittance);
+    var distance = FAR_AWAY;
+    if ray.opacity > 0.0 {
+        distance = ray.opacity_distance / ray.opacity;
+    }
+    return CloudMarch(vec4<f32>(ray.radiance, ray.transmittance), distance);
 }
 
 // ---------------------------------------------------------------------------------------------

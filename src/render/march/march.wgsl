@@ -1,6 +1,7 @@
 // Entry shader of the cloud march: one fullscreen triangle per view. It builds each pixel's view
 // ray, ends it at scene geometry from the depth prepass, and calls `march_clouds` from the
-// `bevy_cloudscape::clouds` library (bindings 2-7 live there). The output (L, T) is blended as
+// `bevy_cloudscape::clouds` library (bindings 2-7 live there) and `march_haze` from
+// `bevy_cloudscape::haze` (bindings 8-9). The output (L, T) is blended as
 // `scene * T + L` by the pipeline's blend state. With LOW_RES it runs at a reduced resolution
 // into its own targets instead, and `upsample.wgsl` composites. Rust side:
 // `src/render/march/mod.rs`.
@@ -8,6 +9,7 @@
 #import bevy_render::view::View
 #import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
 #import bevy_cloudscape::clouds::{clouds, march_clouds, ray_start_jitter, FAR_AWAY}
+#import bevy_cloudscape::haze::{march_haze, composite_haze}
 
 @group(0) @binding(0) var<uniform> view: View;
 #ifdef MULTISAMPLED
@@ -50,13 +52,11 @@ fn fragment(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
         t_max = length(surface_view.xyz / surface_view.w);
     }
 
-    let result = march_clouds(
-        clouds.camera_altitude_m,
-        clouds.camera_up.xyz,
-        direction,
-        t_max,
-        ray_start_jitter(pixel),
-    );
+    // The clouds, then the haze in front of and behind them (`haze.wgsl`).
+    let jitter = ray_start_jitter(pixel);
+    let cloud = march_clouds(clouds.camera_altitude_m, clouds.camera_up.xyz, direction, t_max, jitter);
+    let hazy = march_haze(clouds.camera_altitude_m, clouds.camera_up.xyz, direction, t_max, cloud.distance, jitter);
+    let result = composite_haze(hazy, cloud.colour);
 #ifdef LOW_RES
     return MarchOutput(vec4<f32>(result.rgb * view.exposure, result.a), vec4<f32>(t_max));
 #else

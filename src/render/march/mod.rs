@@ -48,6 +48,7 @@ use bevy::{
     render::{
         Extract, ExtractSchedule, Render, RenderApp, RenderStartup, RenderSystems,
         diagnostic::RecordDiagnostics,
+        render_asset::RenderAssets,
         render_resource::{
             binding_types::{
                 sampler, storage_buffer_read_only, texture_2d, texture_3d, texture_depth_2d,
@@ -57,17 +58,24 @@ use bevy::{
         },
         renderer::{RenderAdapter, RenderContext, RenderDevice, RenderQueue, ViewQuery},
         sync_world::RenderEntity,
-        texture::{CachedTexture, TextureCache},
+        texture::{CachedTexture, FallbackImage, GpuImage, TextureCache},
         view::{ViewTarget, ViewUniform, ViewUniformOffset, ViewUniforms},
     },
     shader::load_shader_library,
 };
 
-use super::{VolumetricClouds, noise::CloudNoiseTextures};
+use super::{
+    VolumetricClouds,
+    haze::{CloudShadowFrame, GpuHazeUniforms, Haze, haze_settings, load_haze_shader},
+    noise::CloudNoiseTextures,
+};
 use crate::{
     CloudscapeSystems,
     layers::CloudLayer,
-    reference::render::{MAX_FAR_COVERAGES, MAX_PROFILE_POINTS, MarchLayer, MarchSettings},
+    reference::{
+        haze::HazeSettings,
+        render::{MAX_FAR_COVERAGES, MAX_PROFILE_POINTS, MarchLayer, MarchSettings},
+    },
     sky::{SceneClock, Sun, light},
 };
 
@@ -79,6 +87,8 @@ impl Plugin for CloudMarchPlugin {
     fn build(&self, app: &mut App) {
         app.register_type::<VolumetricClouds>()
             .register_type::<LayerDrift>()
+            .register_type::<Haze>()
+            .init_resource::<Haze>()
             .add_systems(
                 Update,
                 drift_cloud_layers
@@ -90,6 +100,7 @@ impl Plugin for CloudMarchPlugin {
             return;
         }
         load_shader_library!(app, "clouds.wgsl");
+        load_haze_shader(app);
         embedded_asset!(app, "march.wgsl");
         embedded_asset!(app, "upsample.wgsl");
         app.sub_app_mut(RenderApp)
@@ -555,6 +566,10 @@ pub struct ExtractedCloudView {
     pub layers: Vec<MarchLayer>,
     /// [`VolumetricClouds::effective_resolution_scale`].
     pub resolution_scale: f32,
+    /// The haze along the view's rays.
+    pub haze: HazeSettings,
+    /// World position of the camera, m (places the cloud shadow map for the light shafts).
+    pub camera_m: DVec3,
 }
 
 /// How many times the march pass ran, for diagnostics and tests (render world).
@@ -581,8 +596,11 @@ fn extract_cloud_views(
     lights: Extract<Query<(&DirectionalLight, &GlobalTransform, Has<Sun>)>>,
     atmospheres: Extract<Query<(), With<Atmosphere>>>,
     frame: Extract<Res<FrameCount>>,
+    haze: Extract<Option<Res<Haze>>>,
 ) {
     let sun = CloudSun::pick(lights.iter(), !atmospheres.is_empty());
+    let clear = Haze::default();
+    let haze = haze.as_deref().unwrap_or(&clear);
     for (entity, camera, settings, transform, projection) in &cameras {
         let mut entity_commands = commands.entity(entity);
         let height = camera
@@ -602,7 +620,9 @@ fn extract_cloud_views(
             layers.iter(),
             frame.0,
         );
-        if !camera.is_active || march_layers.is_empty() {
+        let haze = haze_settings(haze, settings, &march, &march_layers);
+        // No cloud and no haze: the pass does not run.
+        if !camera.is_active || (march_layers.is_empty() && !haze.is_active()) {
             entity_commands.remove::<ExtractedCloudView>();
             continue;
         }
@@ -610,6 +630,8 @@ fn extract_cloud_views(
             settings: march,
             layers: march_layers,
             resolution_scale: settings.effective_resolution_scale(),
+            haze,
+            camera_m: transform.translation().as_dvec3(),
         });
     }
 }
@@ -619,28 +641,45 @@ fn extract_cloud_views(
 struct CloudViewBuffers {
     uniforms: UniformBuffer<GpuCloudUniforms>,
     layers: StorageBuffer<Vec<GpuCloudLayer>>,
+    haze: UniformBuffer<GpuHazeUniforms>,
+    /// The shadow map the haze reads, if it reads one.
+    shadow_map: Option<AssetId<Image>>,
 }
 
 fn prepare_cloud_view_buffers(
     mut commands: Commands,
     views: Query<(Entity, &ExtractedCloudView)>,
+    shadow: Option<Res<CloudShadowFrame>>,
     device: Res<RenderDevice>,
     queue: Res<RenderQueue>,
 ) {
     for (entity, view) in &views {
-        let gpu_layers: Vec<GpuCloudLayer> = view.layers.iter().map(GpuCloudLayer::from).collect();
-        let mut uniforms = UniformBuffer::from(GpuCloudUniforms::new(
-            &view.settings,
-            gpu_layers.len() as u32,
-        ));
+        let mut gpu_layers: Vec<GpuCloudLayer> =
+            view.layers.iter().map(GpuCloudLayer::from).collect();
+        let layer_count = gpu_layers.len() as u32;
+        if gpu_layers.is_empty() {
+            // Haze alone: a storage binding may not be empty; this layer is never read.
+            gpu_layers.push(GpuCloudLayer::default());
+        }
+        let mut uniforms = UniformBuffer::from(GpuCloudUniforms::new(&view.settings, layer_count));
         uniforms.set_label(Some("cloud_march_uniforms"));
         uniforms.write_buffer(&device, &queue);
         let mut layers = StorageBuffer::from(gpu_layers);
         layers.set_label(Some("cloud_march_layers"));
         layers.write_buffer(&device, &queue);
-        commands
-            .entity(entity)
-            .insert(CloudViewBuffers { uniforms, layers });
+        let map = shadow
+            .as_deref()
+            .filter(|_| view.haze.shafts && view.haze.is_active());
+        let frame = map.map(|m| m.relative_to(view.camera_m));
+        let mut haze = UniformBuffer::from(GpuHazeUniforms::new(&view.haze, frame.as_ref()));
+        haze.set_label(Some("cloud_haze_uniforms"));
+        haze.write_buffer(&device, &queue);
+        commands.entity(entity).insert(CloudViewBuffers {
+            uniforms,
+            layers,
+            haze,
+            shadow_map: map.map(|m| m.image),
+        });
     }
 }
 
@@ -692,6 +731,8 @@ fn march_layout(label: &'static str, multisampled: bool) -> BindGroupLayoutDescr
                 texture_3d(TextureSampleType::Float { filterable: true }),
                 texture_2d(TextureSampleType::Float { filterable: true }),
                 sampler(SamplerBindingType::Filtering),
+                uniform_buffer::<GpuHazeUniforms>(false),
+                texture_2d(TextureSampleType::Float { filterable: true }),
             ),
         ),
     )
@@ -948,6 +989,8 @@ fn march_cloud_layers(
     noise: Option<Res<CloudNoiseTextures>>,
     view_uniforms: Res<ViewUniforms>,
     pipeline_cache: Res<PipelineCache>,
+    images: Res<RenderAssets<GpuImage>>,
+    fallback: Res<FallbackImage>,
     mut stats: ResMut<CloudPassStats>,
     mut ctx: RenderContext,
 ) {
@@ -963,10 +1006,18 @@ fn march_cloud_layers(
     ) else {
         return;
     };
-    let (Some(uniforms), Some(layers)) = (buffers.uniforms.binding(), buffers.layers.binding())
-    else {
+    let (Some(uniforms), Some(layers), Some(haze)) = (
+        buffers.uniforms.binding(),
+        buffers.layers.binding(),
+        buffers.haze.binding(),
+    ) else {
         return;
     };
+    // The shadow map for the light shafts; white (never read) without one.
+    let shadow_map = buffers
+        .shadow_map
+        .and_then(|id| images.get(id))
+        .map_or(&fallback.d2.texture_view, |image| &image.texture_view);
     // At a reduced resolution: the targets, and the upsample's pipeline and layout.
     let upsample = match (low_res, pipeline_ids.upsample) {
         (Some(targets), Some(id)) => {
@@ -999,6 +1050,8 @@ fn march_cloud_layers(
             &noise.detail.view,
             &noise.weather.view,
             &noise.sampler,
+            haze,
+            shadow_map,
         )),
     );
     let upsample_bind_group = upsample.as_ref().map(|(targets, upsample, _)| {

@@ -73,6 +73,7 @@ use bevy::{
 
 use super::{
     VolumetricClouds,
+    haze::CloudShadowFrame,
     march::{CloudSun, GpuCloudLayer, GpuCloudUniforms, LayerDrift, march_inputs},
     noise::CloudNoiseTextures,
 };
@@ -373,6 +374,7 @@ pub fn shadow_inputs<'a>(
 }
 
 fn extract_cloud_shadow(
+    mut commands: Commands,
     mut extracted: ResMut<ExtractedCloudShadow>,
     settings: Extract<Option<Res<CloudShadows>>>,
     map: Extract<Option<Res<CloudShadowMap>>>,
@@ -389,6 +391,8 @@ fn extract_cloud_shadow(
     atmospheres: Extract<Query<(), With<Atmosphere>>>,
 ) {
     extracted.0 = None;
+    // Set again below when the map is marched this frame (the light shafts read it).
+    commands.remove_resource::<CloudShadowFrame>();
     let (Some(settings), Some(map)) = (settings.as_deref(), map.as_deref()) else {
         return;
     };
@@ -418,6 +422,11 @@ fn extract_cloud_shadow(
         layers.iter(),
     ) {
         Some((march, layers, frame)) if settings.enabled && frame.size == map.resolution => {
+            commands.insert_resource(CloudShadowFrame {
+                image,
+                frame,
+                camera_m: camera.translation().as_dvec3(),
+            });
             Some(ShadowJob::March {
                 image,
                 settings: Box::new(march),

@@ -1,0 +1,590 @@
+//! Haze and light shafts: the air between the camera and the clouds, lit by the sun through the
+//! gaps in the clouds.
+//!
+//! # The medium
+//!
+//! Haze is the aerosol the forecast's visibility speaks of. Koschmieder's law gives the
+//! extinction at the ground from the meteorological visibility `V` (a 2 % contrast threshold):
+//! `σ = ln 50 / V = 3.912 / V` (Koschmieder 1924; WMO-No. 8). The clear air that Bevy's
+//! atmosphere already draws accounts for [`CLEAR_AIR_EXTINCTION_PER_M`] of it, so the haze adds
+//! the rest ([`haze_extinction_for_visibility`]). Its density falls off exponentially with
+//! height above the ground (scale height `H`, about 1.2 km for the boundary-layer aerosol),
+//! `σ(z) = σ₀ e^(−z/H)`, and stops at [`HAZE_TOP_SCALE_HEIGHTS`] scale heights, where it is
+//! three ten-thousandths of its ground value.
+//!
+//! # Light
+//!
+//! A haze particle scatters a fraction `albedo` of what it intercepts, with a Henyey-Greenstein
+//! phase of asymmetry `g` (continental aerosol: albedo about 0.9, `g` about 0.7). It is lit by
+//!
+//! - the sun, dimmed by the clouds above it: with light shafts on, the fraction read from the
+//!   cloud shadow map at the sample (the transmittance along its sun line through every layer;
+//!   [`crate::reference::shadow`]), so shadowed air is dark and the air in a gap is bright: the
+//!   crepuscular rays. With shafts off, or with no shadow map, one number for the whole view,
+//!   [`mean_sun_transmittance`]: the clouds' average shade;
+//! - the sky and the ground, isotropically: the mean of the clouds' top and bottom ambient
+//!   radiance (sky above, ground-reflected light below).
+//!
+//! # Integration
+//!
+//! [`march_haze`] marches the part of the view ray inside the haze (clipped to the scene and the
+//! ground) in `steps` steps whose boundaries follow `t₁ (k/n)²`: short near the camera, where the
+//! shafts are sharp, long far away, where the haze thins with height. Each step uses the same
+//! energy-conserving integral as the clouds (Hillaire 2016), `T S dt (1 − e^(−x))/x`, and the
+//! summed optical depth. The ray is split at the clouds' distance
+//! ([`MarchResult::distance_m`](super::render::MarchResult::distance_m)) into the haze in front
+//! of the clouds and behind them, and [`composite`] stacks the three media:
+//! `L = L_front + T_front (L_clouds + T_clouds L_back)`, `T = T_front T_clouds T_back`. So haze
+//! veils distant clouds (aerial perspective) and clouds hide the haze behind them.
+//!
+//! WGSL twin: `src/render/haze/haze.wgsl`.
+
+use super::render::{
+    MarchResult, MarchSettings, add, altitude_along_ray, dot, ground_distance, henyey_greenstein,
+    intersect_altitude_sphere, mean_step_transmittance, scale,
+};
+use super::shadow::ShadowMapFrame;
+
+/// Koschmieder's constant, `ln 50`: extinction × visibility for a 2 % contrast threshold.
+pub const KOSCHMIEDER_CONSTANT: f64 = 3.912;
+
+/// Extinction of clean air near sea level at 550 nm, 1/m, that Bevy's atmosphere already draws:
+/// Rayleigh `1.16 × 10⁻⁵` (Bucholtz 1995) plus the `4.4 × 10⁻⁶` Mie extinction of Bevy's
+/// default Earth atmosphere. A visibility of 245 km or more adds no haze.
+pub const CLEAR_AIR_EXTINCTION_PER_M: f64 = 1.6e-5;
+
+/// The haze stops this many scale heights above the ground (`e^(−8)`: 0.03 % of its ground
+/// density).
+pub const HAZE_TOP_SCALE_HEIGHTS: f64 = 8.0;
+
+/// Most steps of [`march_haze`]. WGSL twin: `MAX_HAZE_STEPS`.
+pub const MAX_HAZE_STEPS: u32 = 128;
+
+/// Haze extinction at the ground, 1/m, for a meteorological visibility of `visibility_m`
+/// metres: `3.912 / V` less the clear air's [`CLEAR_AIR_EXTINCTION_PER_M`], never negative.
+/// A visibility that is not a positive number (NaN, 0, negative) gives 0: no haze rather than
+/// a wall (callers warn about bad data; the weather mapping never passes it).
+pub fn haze_extinction_for_visibility(visibility_m: f64) -> f64 {
+    if visibility_m.is_nan() || visibility_m <= 0.0 {
+        return 0.0;
+    }
+    (KOSCHMIEDER_CONSTANT / visibility_m - CLEAR_AIR_EXTINCTION_PER_M).max(0.0)
+}
+
+/// The haze of one view, the f64 mirror of the shader's `HazeUniforms`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HazeSettings {
+    /// Extinction at the ground, 1/m. 0: no haze (the default).
+    pub extinction_per_m: f64,
+    /// Height over which the density falls by `e`, metres. Default 1200.
+    pub scale_height_m: f64,
+    /// Single-scattering albedo, 0–1. Default 0.9.
+    pub albedo: f64,
+    /// Henyey-Greenstein asymmetry of the sun's scattering, −1–1. Default 0.7.
+    pub asymmetry: f64,
+    /// Steps along the view ray, clamped to `1..=MAX_HAZE_STEPS`. Default 16.
+    pub steps: u32,
+    /// Light shafts: read the sun's transmittance from the cloud shadow map at every sample.
+    /// Default true.
+    pub shafts: bool,
+    /// The sun's transmittance through the clouds used without shafts or without a map, 0–1
+    /// ([`mean_sun_transmittance`]). Default 1.
+    pub sun_transmittance: f64,
+}
+
+impl Default for HazeSettings {
+    fn default() -> Self {
+        Self {
+            extinction_per_m: 0.0,
+            scale_height_m: 1200.0,
+            albedo: 0.9,
+            asymmetry: 0.7,
+            steps: 16,
+            shafts: true,
+            sun_transmittance: 1.0,
+        }
+    }
+}
+
+impl HazeSettings {
+    /// Whether there is haze to march: a positive, finite extinction and scale height.
+    pub fn is_active(&self) -> bool {
+        self.extinction_per_m.is_finite()
+            && self.extinction_per_m > 0.0
+            && self.scale_height_m.is_finite()
+            && self.scale_height_m > 0.0
+    }
+
+    /// Altitude above the ground where the haze stops, metres.
+    pub fn top_m(&self) -> f64 {
+        HAZE_TOP_SCALE_HEIGHTS * self.scale_height_m
+    }
+
+    /// Extinction at `altitude_m` above the ground, 1/m.
+    pub fn extinction_at(&self, altitude_m: f64) -> f64 {
+        self.extinction_per_m * (-altitude_m.max(0.0) / self.scale_height_m).exp()
+    }
+}
+
+/// The average fraction of sunlight that gets through the clouds over the whole view, 0–1, for
+/// haze without a shadow map: the product over `layers` of `1 − c (1 − e^(−σ h / μs))`, where `c`
+/// is the layer's coverage, `σ` its extinction, `h` its thickness and `μs` the sine of the sun's
+/// elevation (at least 0.05, a grazing path through a layer ~20 times its thickness). A cloud
+/// fraction `c` shades the air by its own slant transmittance, the gaps not at all.
+pub fn mean_sun_transmittance(layers: &[super::render::MarchLayer], mu_sun: f64) -> f64 {
+    let mu = mu_sun.max(0.05);
+    layers
+        .iter()
+        .filter(|layer| super::render::layer_is_active(layer))
+        .map(|layer| {
+            let slant = layer.extinction * (layer.top_m - layer.base_m) / mu;
+            1.0 - layer.coverage.clamp(0.0, 1.0) * (1.0 - (-slant).exp())
+        })
+        .product::<f64>()
+        .clamp(0.0, 1.0)
+}
+
+/// A cloud shadow map as the GPU holds it: the frame and one transmittance per texel, row `j`
+/// after row `j − 1` ([`crate::reference::shadow::cloud_shadow_map`] makes one).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShadowMapImage {
+    /// Where the map lies, relative to the camera of the view that reads it.
+    pub frame: ShadowMapFrame,
+    /// `frame.size²` transmittances, 0–1.
+    pub texels: Vec<f64>,
+}
+
+impl ShadowMapImage {
+    /// The map's texture coordinates `(u, v)` of the sun line through `position_m`: the inverse
+    /// of [`ShadowMapFrame::texel_position`]. WGSL twin: `shadow_map_uv`.
+    pub fn uv(frame: &ShadowMapFrame, position_m: [f64; 3]) -> [f64; 2] {
+        let q = add(position_m, scale(frame.centre_m, -1.0));
+        let x = dot(q, frame.axis_x_m) / dot(frame.axis_x_m, frame.axis_x_m);
+        let y = dot(q, frame.axis_y_m) / dot(frame.axis_y_m, frame.axis_y_m);
+        [0.5 * (1.0 - x), 0.5 * (1.0 + y)]
+    }
+
+    /// The sun's transmittance through the clouds on the sun line through `position_m`
+    /// (relative to the camera), filtered bilinearly between texel centres as a repeating linear
+    /// sampler does; 1 outside the map. WGSL twin: `sun_visibility`.
+    pub fn sample(&self, position_m: [f64; 3]) -> f64 {
+        let [u, v] = Self::uv(&self.frame, position_m);
+        if !(0.0..=1.0).contains(&u) || !(0.0..=1.0).contains(&v) {
+            return 1.0;
+        }
+        let n = self.frame.size.max(1);
+        let nf = f64::from(n);
+        let (x, y) = (u * nf - 0.5, v * nf - 0.5);
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let wrap = |i: f64| (i as i64).rem_euclid(i64::from(n)) as usize;
+        let texel = |i: f64, j: f64| self.texels[wrap(j) * n as usize + wrap(i)];
+        let top = texel(x0, y0) * (1.0 - fx) + texel(x0 + 1.0, y0) * fx;
+        let bottom = texel(x0, y0 + 1.0) * (1.0 - fx) + texel(x0 + 1.0, y0 + 1.0) * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
+}
+
+/// The haze along one view ray: the part in front of the clouds and the part behind them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HazeResult {
+    /// Between the camera and the clouds' distance.
+    pub front: MarchResult,
+    /// Beyond the clouds' distance, up to the scene.
+    pub back: MarchResult,
+}
+
+/// The distances `[start, end]` where the view ray is inside the haze, clipped to `[0, t_max]`
+/// and to the ground; `end <= start` when it misses.
+pub fn haze_interval(
+    haze: &HazeSettings,
+    planet_radius_m: f64,
+    camera_altitude_m: f64,
+    mu: f64,
+    t_max: f64,
+) -> [f64; 2] {
+    let [near, far] =
+        intersect_altitude_sphere(camera_altitude_m, mu, planet_radius_m, haze.top_m());
+    let t_end = t_max.min(ground_distance(camera_altitude_m, mu, planet_radius_m));
+    if far < 0.0 {
+        return [0.0, 0.0];
+    }
+    [near.max(0.0), far.min(t_end)]
+}
+
+/// Marches the haze along one view ray (see the module docs). The camera is at
+/// `camera_altitude_m` with local vertical `up`; `direction` is the unit view ray, `t_max` the
+/// distance to the scene (infinity for the sky), `split_m` the clouds' distance (infinity
+/// without clouds), `jitter` the sample offset within each step (0–1). `shadow` is the cloud
+/// shadow map, read when [`HazeSettings::shafts`] is on. Radiance is in the units of the sun's
+/// illuminance per steradian, before exposure. WGSL twin: `march_haze`.
+#[allow(clippy::too_many_arguments)]
+pub fn march_haze(
+    settings: &MarchSettings,
+    haze: &HazeSettings,
+    camera_altitude_m: f64,
+    up: [f64; 3],
+    direction: [f64; 3],
+    t_max: f64,
+    split_m: f64,
+    jitter: f64,
+    shadow: Option<&ShadowMapImage>,
+) -> HazeResult {
+    let clear = HazeResult {
+        front: MarchResult::CLEAR,
+        back: MarchResult::CLEAR,
+    };
+    if !haze.is_active() {
+        return clear;
+    }
+    let radius = settings.planet_radius_m;
+    let mu = dot(direction, up).clamp(-1.0, 1.0);
+    let [start, end] = haze_interval(haze, radius, camera_altitude_m, mu, t_max);
+    if !super::render::is_positive(end - start) {
+        return clear;
+    }
+    let cos_sun = dot(direction, settings.sun_direction).clamp(-1.0, 1.0);
+    let phase = henyey_greenstein(cos_sun, haze.asymmetry);
+    let ambient: [f64; 3] =
+        std::array::from_fn(|c| 0.5 * (settings.ambient_top[c] + settings.ambient_bottom[c]));
+    let shadow = shadow.filter(|_| haze.shafts);
+    let steps = haze.steps.clamp(1, MAX_HAZE_STEPS);
+    let n = f64::from(steps);
+    let jitter = jitter.clamp(0.0, 1.0);
+    // [front, back]: radiance and optical depth.
+    let mut radiance = [[0.0; 3]; 2];
+    let mut optical_depth = [0.0; 2];
+    let mut total_depth = 0.0_f64;
+    for k in 0..steps {
+        let u0 = f64::from(k) / n;
+        let u1 = f64::from(k + 1) / n;
+        let ta = start + (end - start) * u0 * u0;
+        let tb = start + (end - start) * u1 * u1;
+        let dt = tb - ta;
+        let t = ta + jitter * dt;
+        let altitude = altitude_along_ray(camera_altitude_m, mu, t, radius);
+        let sigma = haze.extinction_at(altitude);
+        let x = sigma * dt;
+        let sun = match shadow {
+            Some(map) => map.sample(scale(direction, t)),
+            None => haze.sun_transmittance,
+        };
+        let weight = (-total_depth).exp() * dt * mean_step_transmittance(x) * sigma * haze.albedo;
+        let part = usize::from(t >= split_m);
+        for (c, value) in radiance[part].iter_mut().enumerate() {
+            *value += weight * (settings.sun_illuminance[c] * sun * phase + ambient[c]);
+        }
+        optical_depth[part] += x;
+        total_depth += x;
+    }
+    // The back part's radiance was weighted by the transmittance from the camera; stated
+    // relative to the clouds' distance it is divided by the front's transmittance.
+    let front_t = (-optical_depth[0]).exp();
+    let back_radiance = if front_t > 0.0 {
+        radiance[1].map(|l| l / front_t)
+    } else {
+        [0.0; 3]
+    };
+    HazeResult {
+        front: MarchResult {
+            radiance: radiance[0],
+            transmittance: front_t,
+            distance_m: f64::INFINITY,
+        },
+        back: MarchResult {
+            radiance: back_radiance,
+            transmittance: (-optical_depth[1]).exp(),
+            distance_m: f64::INFINITY,
+        },
+    }
+}
+
+/// Stacks the haze in front of the clouds, the clouds, and the haze behind them:
+/// `L = L_f + T_f (L_c + T_c L_b)`, `T = T_f T_c T_b`. WGSL twin: `composite_haze`.
+pub fn composite(haze: &HazeResult, clouds: &MarchResult) -> MarchResult {
+    let (front, back) = (&haze.front, &haze.back);
+    MarchResult {
+        radiance: std::array::from_fn(|c| {
+            front.radiance[c]
+                + front.transmittance
+                    * (clouds.radiance[c] + clouds.transmittance * back.radiance[c])
+        }),
+        transmittance: front.transmittance * clouds.transmittance * back.transmittance,
+        distance_m: clouds.distance_m,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const UP: [f64; 3] = [0.0, 1.0, 0.0];
+
+    /// A horizontal ray from 2 m above the ground, facing −z (north), sun behind the camera.
+    fn level_view(haze: &HazeSettings, t_max: f64) -> HazeResult {
+        let settings = MarchSettings {
+            sun_direction: [0.0, 0.5_f64.sqrt(), 0.5_f64.sqrt()],
+            ..MarchSettings::default()
+        };
+        march_haze(
+            &settings,
+            haze,
+            2.0,
+            UP,
+            [0.0, 0.0, -1.0],
+            t_max,
+            f64::INFINITY,
+            0.5,
+            None,
+        )
+    }
+
+    #[test]
+    fn koschmieder_extinction_from_visibility() {
+        let sigma = haze_extinction_for_visibility(20_000.0);
+        assert!((sigma - (3.912 / 20_000.0 - CLEAR_AIR_EXTINCTION_PER_M)).abs() < 1e-15);
+        // Clear air adds nothing; bad values add nothing.
+        assert_eq!(haze_extinction_for_visibility(300_000.0), 0.0);
+        for bad in [f64::NAN, 0.0, -5.0] {
+            assert_eq!(haze_extinction_for_visibility(bad), 0.0, "{bad}");
+        }
+        // Monotonic: lower visibility, thicker haze.
+        assert!(haze_extinction_for_visibility(5_000.0) > haze_extinction_for_visibility(10_000.0));
+    }
+
+    #[test]
+    fn a_black_target_at_the_visibility_keeps_two_percent_contrast() {
+        // Koschmieder's definition, with the haze's own share of the 3.912 / V (the clear air's
+        // share is Bevy's): against the horizon sky, a black target at V shows the contrast
+        // e^(−σ V) of the whole air, here the haze part of it.
+        let visibility = 10_000.0;
+        let haze = HazeSettings {
+            extinction_per_m: KOSCHMIEDER_CONSTANT / visibility,
+            // So thick a layer that the 2 m ray sees a uniform medium.
+            scale_height_m: 1.0e7,
+            steps: 64,
+            ..HazeSettings::default()
+        };
+        let target = level_view(&haze, visibility).front;
+        let horizon = level_view(&haze, f64::INFINITY).front;
+        // Contrast of a black target against the horizon: (L_h − L_t) / L_h.
+        let contrast = (horizon.radiance[1] - target.radiance[1]) / horizon.radiance[1];
+        assert!((contrast - 0.02).abs() < 0.002, "contrast {contrast}");
+        assert!((target.transmittance - 0.02).abs() < 1e-3, "{target:?}");
+    }
+
+    #[test]
+    fn uniform_haze_matches_the_closed_form() {
+        let haze = HazeSettings {
+            extinction_per_m: 1e-4,
+            scale_height_m: 1.0e9,
+            steps: 32,
+            ..HazeSettings::default()
+        };
+        let settings = MarchSettings {
+            sun_direction: [0.0, 0.5_f64.sqrt(), 0.5_f64.sqrt()],
+            ..MarchSettings::default()
+        };
+        let d = 5_000.0;
+        let result = level_view(&haze, d).front;
+        let cos = dot([0.0, 0.0, -1.0], settings.sun_direction);
+        let source = haze.albedo
+            * (settings.sun_illuminance[0] * henyey_greenstein(cos, haze.asymmetry)
+                + 0.5 * (settings.ambient_top[0] + settings.ambient_bottom[0]));
+        let transmittance = (-haze.extinction_per_m * d).exp();
+        let exact = source * (1.0 - transmittance);
+        assert!((result.transmittance - transmittance).abs() < 1e-9);
+        assert!(
+            ((result.radiance[0] - exact) / exact).abs() < 1e-3,
+            "{} vs {exact}",
+            result.radiance[0]
+        );
+    }
+
+    #[test]
+    fn splitting_at_the_clouds_composites_to_the_whole_ray() {
+        let haze = HazeSettings {
+            extinction_per_m: 2e-4,
+            steps: 24,
+            ..HazeSettings::default()
+        };
+        let settings = MarchSettings::default();
+        let direction = [0.0, 0.1, -0.995];
+        let whole = march_haze(
+            &settings,
+            &haze,
+            500.0,
+            UP,
+            direction,
+            f64::INFINITY,
+            f64::INFINITY,
+            0.3,
+            None,
+        );
+        let split = march_haze(
+            &settings,
+            &haze,
+            500.0,
+            UP,
+            direction,
+            f64::INFINITY,
+            4_000.0,
+            0.3,
+            None,
+        );
+        // With clear "clouds" (T = 1, L = 0), the split composites to the unsplit ray.
+        let joined = composite(&split, &MarchResult::CLEAR);
+        assert!(split.back.transmittance < 1.0 && split.front.transmittance < 1.0);
+        assert!((joined.transmittance - whole.front.transmittance).abs() < 1e-12);
+        for c in 0..3 {
+            let (a, b) = (joined.radiance[c], whole.front.radiance[c]);
+            assert!(((a - b) / b).abs() < 1e-12, "{a} vs {b}");
+        }
+        // An opaque cloud hides the haze behind it and is veiled by the haze in front.
+        let cloud = MarchResult {
+            radiance: [1000.0; 3],
+            transmittance: 0.0,
+            distance_m: 4_000.0,
+        };
+        let seen = composite(&split, &cloud);
+        assert_eq!(seen.transmittance, 0.0);
+        let expected = split.front.radiance[0] + split.front.transmittance * 1000.0;
+        assert!((seen.radiance[0] - expected).abs() < 1e-9);
+    }
+
+    #[test]
+    fn shadowed_air_is_darker_than_sunlit_air() {
+        // A map whose left half (u < 0.5) is in full cloud shadow and right half lit: looking
+        // down the shadow line, the shaft of lit air is brighter.
+        let size = 16;
+        let frame = ShadowMapFrame {
+            centre_m: [0.0, 0.0, 0.0],
+            axis_x_m: [-20_000.0, 0.0, 0.0],
+            axis_y_m: [0.0, 0.0, 20_000.0],
+            size,
+        };
+        let texels = (0..size * size)
+            .map(|index| if index % size < size / 2 { 0.0 } else { 1.0 })
+            .collect();
+        let map = ShadowMapImage { frame, texels };
+        // Texel u lies at centre + (1 − 2u) axis_x and axis_x points to −x, so u < 0.5 (the
+        // shadowed half) is world −x.
+        assert_eq!(map.sample([-10_000.0, 0.0, 0.0]), 0.0);
+        assert_eq!(map.sample([10_000.0, 0.0, 0.0]), 1.0);
+        assert_eq!(
+            map.sample([50_000.0, 0.0, 0.0]),
+            1.0,
+            "outside the map: no shadow"
+        );
+        let haze = HazeSettings {
+            extinction_per_m: 1e-4,
+            ..HazeSettings::default()
+        };
+        let settings = MarchSettings::default();
+        let look = |direction: [f64; 3]| {
+            march_haze(
+                &settings,
+                &haze,
+                10.0,
+                UP,
+                direction,
+                f64::INFINITY,
+                f64::INFINITY,
+                0.5,
+                Some(&map),
+            )
+            .front
+        };
+        let shadowed = look([-0.9, 0.0, -0.436]);
+        let lit = look([0.9, 0.0, -0.436]);
+        assert!(
+            lit.radiance[1] > 1.5 * shadowed.radiance[1],
+            "lit {lit:?} shadowed {shadowed:?}"
+        );
+        // Same air, same transmittance: only the light differs.
+        assert!((lit.transmittance - shadowed.transmittance).abs() < 1e-12);
+        // Without shafts both see the mean transmittance.
+        let flat = HazeSettings {
+            shafts: false,
+            sun_transmittance: 0.5,
+            ..haze
+        };
+        let a = march_haze(
+            &settings,
+            &flat,
+            10.0,
+            UP,
+            [0.9, 0.0, -0.436],
+            f64::INFINITY,
+            f64::INFINITY,
+            0.5,
+            Some(&map),
+        );
+        let b = march_haze(
+            &settings,
+            &flat,
+            10.0,
+            UP,
+            [-0.9, 0.0, -0.436],
+            f64::INFINITY,
+            f64::INFINITY,
+            0.5,
+            Some(&map),
+        );
+        assert!((a.front.radiance[1] - b.front.radiance[1]).abs() < 1e-9);
+    }
+
+    #[test]
+    fn mean_sun_transmittance_follows_coverage_and_thickness() {
+        use super::super::render::MarchLayer;
+        let layer = |coverage: f64, extinction: f64| MarchLayer {
+            base_m: 1000.0,
+            top_m: 2000.0,
+            coverage,
+            extinction,
+            ..MarchLayer::default()
+        };
+        assert_eq!(mean_sun_transmittance(&[], 1.0), 1.0);
+        let overcast = mean_sun_transmittance(&[layer(1.0, 0.05)], 1.0);
+        assert!(overcast < 1e-6, "{overcast}");
+        let half = mean_sun_transmittance(&[layer(0.5, 0.05)], 1.0);
+        assert!((half - 0.5).abs() < 1e-6, "{half}");
+        let thin = mean_sun_transmittance(&[layer(1.0, 1e-4)], 1.0);
+        assert!((thin - (-0.1_f64).exp()).abs() < 1e-9, "{thin}");
+        // A low sun crosses more cloud.
+        assert!(mean_sun_transmittance(&[layer(1.0, 1e-4)], 0.2) < thin);
+    }
+
+    #[test]
+    fn hard_cases_stay_finite() {
+        let settings = MarchSettings::default();
+        for extinction in [0.0, 1e-12, 1e-4, 1e3, f64::INFINITY, f64::NAN] {
+            for altitude in [-10.0, 0.0, 2.0, 9_599.0, 9_600.0, 50_000.0] {
+                for direction in [
+                    [0.0, 1.0, 0.0],
+                    [0.0, -1.0, 0.0],
+                    [0.0, 0.0, -1.0],
+                    [0.0, 1e-7, -1.0],
+                    [0.0, -0.05, -0.9987],
+                ] {
+                    for t_max in [0.0, 1.0, 1e5, f64::INFINITY] {
+                        let haze = HazeSettings {
+                            extinction_per_m: extinction,
+                            ..HazeSettings::default()
+                        };
+                        let r = march_haze(
+                            &settings, &haze, altitude, UP, direction, t_max, 3_000.0, 0.99, None,
+                        );
+                        for part in [r.front, r.back] {
+                            assert!(
+                                (0.0..=1.0).contains(&part.transmittance),
+                                "{extinction} {altitude} {direction:?} {t_max}: {part:?}"
+                            );
+                            assert!(part.radiance.iter().all(|l| l.is_finite() && *l >= 0.0));
+                        }
+                    }
+                }
+            }
+        }
+    }
+}

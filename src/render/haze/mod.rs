@@ -1,0 +1,271 @@
+//! Haze from the forecast's visibility, and light shafts through the gaps in the clouds.
+//!
+//! The march pass marches the haze along every view ray after the clouds (`haze.wgsl`, a shader
+//! library imported by `march.wgsl`) and stacks it in front of and behind them, so distant
+//! clouds and hills fade into the haze and the clouds hide the haze beyond. The model, its
+//! sources and the integrator are documented in [`crate::reference::haze`], the f64 CPU twin.
+//!
+//! # Light shafts
+//!
+//! With [`VolumetricClouds::light_shafts`] on (every preset but `LOW`), each haze sample reads
+//! the sun's transmittance from the cloud shadow map ([`crate::render::shadow`]): air in a
+//! cloud's shadow scatters no sunlight and air under a gap does, which draws crepuscular rays.
+//! The map covers [`CloudShadows::extent_m`](crate::render::shadow::CloudShadows::extent_m)
+//! around the camera; beyond it the air is lit. With the shafts off, or with no map (shadows
+//! disabled, night), the whole view uses one number, the clouds' mean transmittance toward the
+//! sun ([`crate::reference::haze::mean_sun_transmittance`]), so overcast skies still dim the
+//! haze.
+//!
+//! # What it costs
+//!
+//! Nothing when [`Haze::visibility_m`] is infinite (the default) or 245 km or more: the march
+//! skips it, and with no visible cloud layer either the pass does not run. Otherwise
+//! [`VolumetricClouds::haze_steps`] samples per pixel, each one exponential and, with shafts, one
+//! filtered read of the shadow map.
+
+use bevy::{
+    math::DVec3, prelude::*, render::render_resource::ShaderType, shader::load_shader_library,
+};
+
+use super::VolumetricClouds;
+use crate::reference::{
+    haze::{HazeSettings, haze_extinction_for_visibility, mean_sun_transmittance},
+    render::{MarchLayer, MarchSettings},
+    shadow::ShadowMapFrame,
+};
+
+/// The haze of the scene: aerosol whose density follows the meteorological visibility.
+/// Live-editable. With [`Haze::weather_driven`] on, the weather sets the visibility from the
+/// forecast.
+#[derive(Resource, Reflect, Clone, Debug, PartialEq)]
+#[reflect(Resource, Default)]
+pub struct Haze {
+    /// Meteorological visibility at the ground, metres (the distance at which a black target
+    /// keeps 2 % contrast). Default infinity: clear air, no haze. From 245 km up it adds
+    /// nothing to the clear air Bevy's atmosphere draws; below 5 km the weather mapping hands
+    /// the rest to the fog layer.
+    pub visibility_m: f32,
+    /// Height over which the haze density falls by a factor e, metres. Default 1 200 (the
+    /// boundary-layer aerosol).
+    pub scale_height_m: f32,
+    /// Fraction of the intercepted light the haze scatters, 0–1. Default 0.9 (continental
+    /// aerosol).
+    pub albedo: f32,
+    /// Henyey-Greenstein asymmetry of the scattering, −1–1 (positive: forward). Default 0.7.
+    pub asymmetry: f32,
+    /// Let the weather set [`Haze::visibility_m`] from the forecast. Default true.
+    pub weather_driven: bool,
+}
+
+impl Default for Haze {
+    fn default() -> Self {
+        Self {
+            visibility_m: f32::INFINITY,
+            scale_height_m: 1200.0,
+            albedo: 0.9,
+            asymmetry: 0.7,
+            weather_driven: true,
+        }
+    }
+}
+
+impl Haze {
+    /// Haze with the default optics and `visibility_m` metres of visibility.
+    pub fn with_visibility(visibility_m: f32) -> Self {
+        Self {
+            visibility_m,
+            ..default()
+        }
+    }
+}
+
+/// Loads `haze.wgsl`, the shader library the march imports.
+pub(crate) fn load_haze_shader(app: &mut App) {
+    load_shader_library!(app, "haze.wgsl");
+}
+
+/// The haze settings of one view: [`Haze`] with the view's quality knobs, and the clouds' mean
+/// transmittance toward the sun for haze without a shadow map. Bad values (NaN, negative)
+/// give no haze rather than NaN.
+pub fn haze_settings(
+    haze: &Haze,
+    clouds: &VolumetricClouds,
+    march: &MarchSettings,
+    layers: &[MarchLayer],
+) -> HazeSettings {
+    let finite_or = |v: f32, default: f64| {
+        if v.is_finite() { f64::from(v) } else { default }
+    };
+    let defaults = HazeSettings::default();
+    let scale_height = finite_or(haze.scale_height_m, defaults.scale_height_m);
+    HazeSettings {
+        extinction_per_m: if scale_height > 0.0 {
+            haze_extinction_for_visibility(f64::from(haze.visibility_m))
+        } else {
+            0.0
+        },
+        scale_height_m: scale_height,
+        albedo: finite_or(haze.albedo, defaults.albedo).clamp(0.0, 1.0),
+        asymmetry: finite_or(haze.asymmetry, defaults.asymmetry).clamp(-0.99, 0.99),
+        steps: clouds
+            .haze_steps
+            .clamp(1, crate::reference::haze::MAX_HAZE_STEPS),
+        shafts: clouds.light_shafts,
+        sun_transmittance: mean_sun_transmittance(
+            layers,
+            DVec3::from_array(march.sun_direction).dot(DVec3::from_array(march.camera_up)),
+        ),
+    }
+}
+
+/// Where the cloud shadow map lies this frame, for the light shafts (render world): the map's
+/// frame relative to the camera it follows, and that camera's position. Absent while no map
+/// holds shadows (disabled, night, no clouds).
+#[derive(Resource, Clone, Debug)]
+pub struct CloudShadowFrame {
+    /// The shadow map image.
+    pub image: AssetId<Image>,
+    /// The map's frame, relative to `camera_m`.
+    pub frame: ShadowMapFrame,
+    /// World position of the camera the map follows, m.
+    pub camera_m: DVec3,
+}
+
+impl CloudShadowFrame {
+    /// The frame relative to a view camera at `camera_m`.
+    pub fn relative_to(&self, camera_m: DVec3) -> ShadowMapFrame {
+        let shift = self.camera_m - camera_m;
+        ShadowMapFrame {
+            centre_m: (DVec3::from_array(self.frame.centre_m) + shift).to_array(),
+            ..self.frame
+        }
+    }
+}
+
+/// The haze uniform, laid out as `HazeUniforms` in `haze.wgsl` (80 bytes).
+#[derive(ShaderType, Clone, Debug, Default)]
+pub struct GpuHazeUniforms {
+    extinction_per_m: f32,
+    scale_height_m: f32,
+    albedo: f32,
+    asymmetry: f32,
+    steps: u32,
+    shafts: u32,
+    sun_transmittance: f32,
+    pad: u32,
+    map_centre_m: Vec4,
+    map_axis_x: Vec4,
+    map_axis_y: Vec4,
+}
+
+impl GpuHazeUniforms {
+    /// The uniform for `settings`, reading the shadow map at `map` (relative to the view's
+    /// camera) when the settings ask for shafts and there is a map.
+    pub fn new(settings: &HazeSettings, map: Option<&ShadowMapFrame>) -> Self {
+        let inverse = |a: [f64; 3]| {
+            let length_squared = DVec3::from_array(a).length_squared();
+            if length_squared > 0.0 {
+                Vec4::new(
+                    (a[0] / length_squared) as f32,
+                    (a[1] / length_squared) as f32,
+                    (a[2] / length_squared) as f32,
+                    0.0,
+                )
+            } else {
+                Vec4::ZERO
+            }
+        };
+        let map = map.filter(|_| settings.shafts);
+        let active = settings.is_active();
+        Self {
+            extinction_per_m: if active {
+                settings.extinction_per_m as f32
+            } else {
+                0.0
+            },
+            scale_height_m: settings.scale_height_m as f32,
+            albedo: settings.albedo as f32,
+            asymmetry: settings.asymmetry as f32,
+            steps: settings.steps,
+            shafts: u32::from(map.is_some()),
+            sun_transmittance: settings.sun_transmittance as f32,
+            pad: 0,
+            map_centre_m: map.map_or(Vec4::ZERO, |m| {
+                let c = m.centre_m;
+                Vec4::new(c[0] as f32, c[1] as f32, c[2] as f32, 0.0)
+            }),
+            map_axis_x: map.map_or(Vec4::ZERO, |m| inverse(m.axis_x_m)),
+            map_axis_y: map.map_or(Vec4::ZERO, |m| inverse(m.axis_y_m)),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn uniform_layout_matches_the_shader() {
+        assert_eq!(GpuHazeUniforms::min_size().get(), 80);
+    }
+
+    #[test]
+    fn bad_haze_values_give_no_haze_or_defaults() {
+        let clouds = VolumetricClouds::default();
+        let march = MarchSettings::default();
+        for visibility in [f32::NAN, -1.0, 0.0, f32::INFINITY, 1.0e6] {
+            let settings = haze_settings(&Haze::with_visibility(visibility), &clouds, &march, &[]);
+            assert!(!settings.is_active(), "{visibility}");
+        }
+        let wild = Haze {
+            visibility_m: 10_000.0,
+            scale_height_m: f32::NAN,
+            albedo: 7.0,
+            asymmetry: f32::NEG_INFINITY,
+            weather_driven: true,
+        };
+        let settings = haze_settings(&wild, &clouds, &march, &[]);
+        assert!(settings.is_active());
+        assert_eq!(settings.scale_height_m, 1200.0);
+        assert_eq!(settings.albedo, 1.0);
+        assert_eq!(settings.asymmetry, 0.7);
+        let flat = Haze {
+            scale_height_m: 0.0,
+            ..wild
+        };
+        assert!(!haze_settings(&flat, &clouds, &march, &[]).is_active());
+    }
+
+    #[test]
+    fn shafts_need_a_map_and_the_setting() {
+        let frame = ShadowMapFrame {
+            centre_m: [1.0, 2.0, 3.0],
+            axis_x_m: [2.0e4, 0.0, 0.0],
+            axis_y_m: [0.0, 0.0, 2.0e4],
+            size: 256,
+        };
+        let on = HazeSettings {
+            extinction_per_m: 1e-4,
+            ..HazeSettings::default()
+        };
+        let uniform = GpuHazeUniforms::new(&on, Some(&frame));
+        assert_eq!(uniform.shafts, 1);
+        assert!((uniform.map_axis_x.x - 5.0e-5).abs() < 1e-12);
+        assert_eq!(GpuHazeUniforms::new(&on, None).shafts, 0);
+        let off = HazeSettings {
+            shafts: false,
+            ..on
+        };
+        assert_eq!(GpuHazeUniforms::new(&off, Some(&frame)).shafts, 0);
+        // A map that follows another camera is shifted into this view's frame.
+        let shared = CloudShadowFrame {
+            image: AssetId::default(),
+            frame,
+            camera_m: DVec3::new(100.0, 0.0, 0.0),
+        };
+        assert_eq!(
+            shared.relative_to(DVec3::new(0.0, 10.0, 0.0)).centre_m,
+            [101.0, -8.0, 3.0]
+        );
+    }
+}
