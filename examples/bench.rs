@@ -22,8 +22,8 @@
 //!   MEDIUM yellow, HIGH green, ULTRA blue; grey lines at every decade.
 //! - `images/SCENE_PRESET.png`: each render beside the reference.
 //! - `effects.csv`: `effect,scene,ms_with,ms_without,ratio`, the median whole-frame time with
-//!   and without each optional effect (today the cloud shadow map, 512² by default), on the
-//!   cumulus scene with `MEDIUM`.
+//!   and without each optional effect (the cloud shadow map at 256², haze, light shafts, rain,
+//!   fog; see `measure_effects`), on the cumulus scene with `MEDIUM`.
 //!
 //! `--error-budget` instead prints, for the cumulus and sunset scenes, the error of `HIGH` with one
 //! knob changed at a time, on the CPU reference renderer (48×27, small noise, no jitter) against
@@ -199,25 +199,74 @@ fn measure(
     }
 }
 
-/// What each optional effect costs: the median whole-frame time with the effect and without it,
-/// on the cumulus scene with `MEDIUM` (CSV `effect,scene,ms_with,ms_without,ratio`).
+/// What each optional effect costs: the median whole-frame time with the effect and without it
+/// (CSV `effect,scene,ms_with,ms_without,ratio`), each on the cumulus scene with `MEDIUM`:
+///
+/// - `cloud_shadows`: the shadow map pass ([`CloudShadows::default`], 256²);
+/// - `haze`: haze at 20 km visibility, light shafts off (the clouds' mean shade), against none;
+/// - `light_shafts`: that haze reading the shadow map (shafts on), against shafts off, with
+///   the shadow map on in both;
+/// - `rain`: 3 mm/h from the cumulus (a rain-shaft layer under it and the particles), against
+///   none;
+/// - `fog`: a fog layer at 1 km visibility (coverage 1, 150 m deep), against none.
 fn measure_effects(rig: &mut CloudRig, frames: u32) -> String {
-    let scene = Scene {
+    let base = Scene {
         settings: VolumetricClouds::MEDIUM,
         ..showcase_scenes().remove(0)
     };
-    rig.set_scene(&scene);
-    let mut time_with = |enabled: bool| {
-        rig.app.world().resource_mut::<CloudShadows>().enabled = enabled;
+    let mut csv = String::from("effect,scene,ms_with,ms_without,ratio\n");
+    // Sets the rig up for one side of a comparison and times it.
+    let time = |rig: &mut CloudRig, scene: &Scene, shadows: bool, haze: Haze| {
+        rig.set_scene(scene);
+        rig.app.world().resource_mut::<CloudShadows>().enabled = shadows;
+        rig.app.world().insert_resource(haze);
         rig.app.run_frames(2);
         median_frame_time(rig, frames).as_secs_f64() * 1e3
     };
-    let (with, without) = (time_with(true), time_with(false));
-    format!(
-        "effect,scene,ms_with,ms_without,ratio\ncloud_shadows,{},{with:.3},{without:.3},{:.3}\n",
-        scene.name,
-        with / without
-    )
+    let mut row = |effect: &str, with: f64, without: f64| {
+        csv.push_str(&format!(
+            "{effect},{},{with:.3},{without:.3},{:.3}\n",
+            base.name,
+            with / without
+        ));
+    };
+    let clear = Haze::default();
+    let hazy = Haze::with_visibility(20_000.0);
+    let with = time(rig, &base, true, clear.clone());
+    let without = time(rig, &base, false, clear.clone());
+    row("cloud_shadows", with, without);
+
+    let flat = Scene {
+        settings: VolumetricClouds {
+            light_shafts: false,
+            ..VolumetricClouds::MEDIUM
+        },
+        ..base.clone()
+    };
+    let with = time(rig, &flat, false, hazy.clone());
+    let without = time(rig, &flat, false, clear.clone());
+    row("haze", with, without);
+
+    let with = time(rig, &base, true, hazy.clone());
+    let without = time(rig, &flat, true, hazy);
+    row("light_shafts", with, without);
+
+    let mut raining = base.clone();
+    raining.layers[0].rain_mm_per_h = 3.0;
+    let with = time(rig, &raining, false, clear.clone());
+    let without = time(rig, &base, false, clear.clone());
+    row("rain", with, without);
+
+    let mut foggy = base.clone();
+    let mut fog = LayerSlot::Fog.initial_layer();
+    fog.coverage = 1.0;
+    fog.density = 3.912 / 1_000.0;
+    fog.weather_driven = false;
+    foggy.layers.push(fog);
+    let with = time(rig, &foggy, false, clear.clone());
+    let without = time(rig, &base, false, clear);
+    row("fog", with, without);
+    csv
 }
 
 /// (relative RMSE, largest absolute difference) of linear luminance.

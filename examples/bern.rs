@@ -44,6 +44,7 @@
 //! | `--photo-opacity X` | opacity of the photo overlay, 0–1 | 0.5 |
 //! | `--photo-wiper X` | fraction of the width, from the left, that shows the photo | 1 |
 //! | `--ev100 EV` | camera exposure | 14 (sunlit scenes; Bevy's atmosphere example uses 13) |
+//! | `--azimuth DEG` | look this way from the view's hill, degrees clockwise from north (toward a low sun for light shafts) | the view's own: Gurten 20°, Bantiger 225° |
 //! | `--no-clouds` | no `VolumetricClouds` on the camera: the same frame without clouds (CI compares the two) | clouds on |
 //! | `--log-frame-times` | log the frame time and the cloud passes' GPU times every second | off |
 //! | `--no-cloud-shadows` | turn the cloud shadow map off (to compare, or to time its cost) | on |
@@ -119,7 +120,8 @@ const SETTLE_FRAMES: u32 = 3;
 const USAGE: &str = "usage: bern [--camera gurten|bantiger] [--time RFC3339] [--headless] \
                      [--out PATH] [--width W] [--height H] [--frames N --step 10m] [--warmup N] \
                      [--photos DIR] [--photo-opacity 0..1] [--photo-wiper 0..1] [--dem PATH] \
-                     [--ev100 EV] [--no-cloud-shadows] [--no-clouds] [--log-frame-times]";
+                     [--ev100 EV] [--azimuth DEG] [--no-cloud-shadows] [--no-clouds] \
+                     [--log-frame-times]";
 
 fn main() -> AppExit {
     if std::env::args().any(|arg| arg == "--help" || arg == "-h") {
@@ -155,6 +157,7 @@ fn main() -> AppExit {
     .insert_resource(ViewState {
         viewpoint: options.viewpoint,
         free: false,
+        azimuth_deg: options.azimuth_deg,
     })
     .insert_resource(PhotoOverlay {
         visible: options.photos.is_some(),
@@ -248,6 +251,8 @@ struct BernOptions {
     log_frame_times: bool,
     /// Render clouds (false: the camera has no `VolumetricClouds`).
     clouds: bool,
+    /// `--azimuth`: the view direction, degrees clockwise from north.
+    azimuth_deg: Option<f32>,
 }
 
 fn parse_options(
@@ -268,6 +273,7 @@ fn parse_options(
         cloud_shadows: true,
         log_frame_times: false,
         clouds: true,
+        azimuth_deg: None,
     };
     let mut warmup = None;
     let mut out_given = false;
@@ -290,6 +296,15 @@ fn parse_options(
             "--no-cloud-shadows" => options.cloud_shadows = false,
             "--log-frame-times" => options.log_frame_times = true,
             "--no-clouds" => options.clouds = false,
+            "--azimuth" => {
+                let text = value()?;
+                options.azimuth_deg = Some(
+                    text.parse::<f32>()
+                        .ok()
+                        .filter(|a| a.is_finite())
+                        .ok_or_else(|| format!("--azimuth: {text:?} is not a number of degrees"))?,
+                );
+            }
             "--ev100" => {
                 let text = value()?;
                 options.ev100 = text
@@ -427,6 +442,9 @@ struct ViewState {
     viewpoint: Viewpoint,
     /// The free-fly camera is on.
     free: bool,
+    /// `--azimuth`: look this way instead of the view's own direction, degrees clockwise from
+    /// north (cleared when another view is picked).
+    azimuth_deg: Option<f32>,
 }
 
 /// The terrain, kept on the CPU to put cameras on it.
@@ -449,12 +467,15 @@ const MAX_BROW_DISTANCE_M: f64 = 1_000.0;
 /// has fallen [`BROW_DROP_M`] below the top), with the eye [`EYE_HEIGHT_M`] above the ground:
 /// from the top itself, the rounded summit (the terrain pins it with a flat quad some 250 m
 /// across) hides the valley below, just as it would hide Bern from a walker on the Gurten's top.
-fn viewpoint_transform(viewpoint: Viewpoint, terrain: &Terrain) -> Transform {
-    let summit = viewpoint.summit();
+fn viewpoint_transform(view: &ViewState, terrain: &Terrain) -> Transform {
+    let summit = view.viewpoint.summit();
     let [x, _, z] = terrain
         .plane
         .to_scene(summit.latitude_deg, summit.longitude_deg, 0.0);
-    let azimuth = viewpoint.azimuth_deg().to_radians();
+    let azimuth = view
+        .azimuth_deg
+        .unwrap_or(view.viewpoint.azimuth_deg())
+        .to_radians();
     // +X east, −Z north.
     let ahead = Vec2::new(azimuth.sin(), -azimuth.cos()).as_dvec2();
     let (position, ground) = match &terrain.mesh {
@@ -565,7 +586,7 @@ fn spawn_scene(
                 fov: FOV_DEG.to_radians(),
                 ..default()
             }),
-            viewpoint_transform(view.viewpoint, &terrain),
+            viewpoint_transform(&view, &terrain),
             AtmosphereSettings {
                 // The terrain reaches 60 km (the Alps); haze it all the way, not only the
                 // default 32 km.
@@ -709,12 +730,14 @@ fn view_keys(
         next = ViewState {
             viewpoint: Viewpoint::Gurten,
             free: false,
+            azimuth_deg: None,
         };
     }
     if keys.just_pressed(KeyCode::Digit2) {
         next = ViewState {
             viewpoint: Viewpoint::Bantiger,
             free: false,
+            azimuth_deg: None,
         };
     }
     if keys.just_pressed(KeyCode::KeyF) {
@@ -756,7 +779,7 @@ fn apply_view(
             commands
                 .entity(camera)
                 .remove::<(FreeCamera, FreeCameraState)>();
-            *transform = viewpoint_transform(view.viewpoint, &terrain);
+            *transform = viewpoint_transform(&view, &terrain);
         }
     }
 }
@@ -1356,6 +1379,7 @@ mod panel {
                             next_view = ViewState {
                                 viewpoint,
                                 free: false,
+                                azimuth_deg: None,
                             };
                         }
                     }

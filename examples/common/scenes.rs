@@ -151,6 +151,9 @@ pub struct CloudRig {
     pub sun: Entity,
     /// Per pixel, how far f16 rounding can move the `T` of the last [`CloudRig::render`].
     pub t_tolerance: Vec<f32>,
+    /// The march inputs of the frame [`CloudRig::render`] took its radiance from (its frame
+    /// index sets the jitter), for [`CloudRig::reference`].
+    pub rendered_view: Option<ExtractedCloudView>,
 }
 
 /// Spacing of half-floats around `v`.
@@ -208,6 +211,7 @@ impl CloudRig {
             camera,
             sun,
             t_tolerance: Vec::new(),
+            rendered_view: None,
         }
     }
 
@@ -230,6 +234,12 @@ impl CloudRig {
         self.set_background(Color::BLACK);
         self.app.run_frames(frames);
         let black = self.app.read_target();
+        let world = self.app.render_world();
+        self.rendered_view = world
+            .query::<&ExtractedCloudView>()
+            .iter(world)
+            .next()
+            .cloned();
         self.set_background(Color::linear_rgb(GREY, GREY, GREY));
         self.app.run_frames(2);
         let grey = self.app.read_target();
@@ -279,7 +289,10 @@ impl CloudRig {
         textures: &CloudTextures,
         shadow: Option<&ShadowMapImage>,
     ) -> (Vec<[f32; 3]>, Vec<f32>) {
-        let view = self.extracted();
+        let view = self
+            .rendered_view
+            .clone()
+            .unwrap_or_else(|| self.extracted());
         let size = self.app.size;
         let world = self.app.world();
         let camera = world.get::<Camera>(self.camera).unwrap();

@@ -14,9 +14,12 @@
 //! - [`shadow`]: the cloud shadow map — the transmittance of every layer along the sun line
 //!   through a ground point, and the texel layout of the map. GPU twin:
 //!   `src/render/shadow/shadow.wgsl` and `shadow_optical_depth` in `clouds.wgsl`.
+//! - [`blue_noise`]: the tileable blue-noise map of the ray-start jitter. GPU twin:
+//!   `blue_noise_jitter` in `clouds.wgsl`, reading the same values from a texture.
 //! - [`haze`]: haze from the visibility, marched along the view ray with light shafts from the
 //!   shadow map, and stacked with the clouds. GPU twin: `src/render/haze/haze.wgsl`.
 
+pub mod blue_noise;
 pub mod haze;
 pub mod noise;
 pub mod render;

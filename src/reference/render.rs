@@ -202,7 +202,7 @@ pub struct MarchSettings {
     /// `t · pixel_angle_rad`, and the noise mip level follows it (seed 002, "LODs Over
     /// Distance"). Default 0.001 (a 60° field of view over about 1000 pixels).
     pub pixel_angle_rad: f64,
-    /// Jitter the ray start per pixel with interleaved gradient noise ([`ray_start_jitter`]).
+    /// Jitter the ray start per pixel with blue noise ([`ray_start_jitter`]).
     /// Default true.
     pub jitter: bool,
     /// Frame counter that animates the jitter. Default 0.
@@ -1163,25 +1163,13 @@ pub fn mean_step_transmittance(x: f64) -> f64 {
     }
 }
 
-/// Interleaved gradient noise (Jimenez 2014, "Next Generation Post Processing in Call of Duty:
-/// Advanced Warfare"): `fract(52.9829189 · fract(0.06711056 x + 0.00583715 y))` at `pixel`
-/// (pixel coordinates), shifted by `5.588238 · (frame mod 64)` pixels per frame so the pattern
-/// moves for temporal accumulation. In `[0, 1)`. WGSL twin: `interleaved_gradient_noise` (in
-/// f32: the two differ by about `1e-3` at pixel coordinates in the thousands).
-pub fn interleaved_gradient_noise(pixel: [f64; 2], frame: u32) -> f64 {
-    let shift = 5.588_238 * f64::from(frame % 64);
-    let x = pixel[0] + shift;
-    let y = pixel[1] + shift;
-    let inner = (0.067_110_56 * x + 0.005_837_15 * y).rem_euclid(1.0);
-    (52.982_918_9 * inner).rem_euclid(1.0)
-}
-
-/// Offset of the first sample within each step, 0–1: interleaved gradient noise at `pixel` when
+/// Offset of the first sample within each step, 0–1: blue noise at `pixel`, animated per frame
+/// ([`blue_noise_jitter`](super::blue_noise::blue_noise_jitter)), when
 /// [`MarchSettings::jitter`] is on (against banding, seed 002 "Banding Reduction"), the step
 /// midpoint 0.5 when off. WGSL twin: `ray_start_jitter`.
 pub fn ray_start_jitter(settings: &MarchSettings, pixel: [f64; 2]) -> f64 {
     if settings.jitter {
-        interleaved_gradient_noise(pixel, settings.frame_index)
+        super::blue_noise::blue_noise_jitter(pixel, settings.frame_index)
     } else {
         0.5
     }
@@ -2262,10 +2250,17 @@ mod tests {
         }
         // An isotropic lobe is 1 / 4π.
         assert!((henyey_greenstein(0.3, 0.0) - 1.0 / (4.0 * std::f64::consts::PI)).abs() < 1e-15);
+        let on = MarchSettings::default();
         for x in 0..64 {
             for frame in [0, 1, 63, 1000] {
-                let j =
-                    interleaved_gradient_noise([f64::from(x) * 37.0, f64::from(x) * 11.0], frame);
+                let pixel = [f64::from(x) * 37.0 + 0.5, f64::from(x) * -11.0 + 0.5];
+                let j = ray_start_jitter(
+                    &MarchSettings {
+                        frame_index: frame,
+                        ..on.clone()
+                    },
+                    pixel,
+                );
                 assert!((0.0..1.0).contains(&j));
             }
         }

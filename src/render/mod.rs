@@ -55,7 +55,8 @@ pub struct VolumetricClouds {
     pub transmittance_cutoff: f32,
     /// Multiple-scattering octaves (Wrenninge 2013; 1 = single scattering only, up to 8).
     pub multiple_scattering_octaves: u32,
-    /// Jitter the ray start per pixel and frame (interleaved gradient noise) to trade banding
+    /// Jitter the ray start per pixel and frame (blue noise, animated with the golden ratio) to
+    /// trade banding
     /// for fine noise. Default true.
     pub jitter: bool,
     /// Fraction of the view's resolution the march runs at, per axis (0.25–1). Below 1 the

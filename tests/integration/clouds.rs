@@ -723,3 +723,40 @@ fn haze_veils_distant_clouds_like_the_cpu_reference() {
         "haze lowers the contrast: {hazy} vs {clear}"
     );
 }
+
+/// With jitter on, the GPU reads the blue-noise map the CPU twin makes: the same jittered image,
+/// frame for frame.
+#[test]
+fn blue_noise_jitter_matches_the_cpu_reference() {
+    let size = UVec2::new(64, 36);
+    let textures = CloudTextures::from_recipe(&small_recipe());
+    let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
+    let mut scene = showcase_scenes().remove(0);
+    scene.settings = VolumetricClouds {
+        jitter: true,
+        primary_steps: 24,
+        ..scene.settings
+    };
+    rig.set_scene(&scene);
+    let (gpu_l, _) = rig.render(3);
+    let (cpu_l, _) = rig.reference(&textures);
+    let frame = rig.rendered_view.as_ref().unwrap().settings.frame_index;
+    // The same frame without jitter: the jitter must change the picture.
+    let mut steady = rig.rendered_view.clone().unwrap();
+    steady.settings.jitter = false;
+    rig.rendered_view = Some(steady);
+    let (still_l, _) = rig.reference(&textures);
+    save_strip(
+        &output_dir().join("clouds_blue_noise_jitter.png"),
+        size,
+        &[&gpu_l, &cpu_l, &still_l],
+    );
+    let error = relative_rmse(&gpu_l, &cpu_l);
+    let jitter_effect = relative_rmse(&still_l, &cpu_l);
+    eprintln!(
+        "jittered frame {frame}: relative RMSE against the CPU {error:.4}; the jitter itself \
+         moves the image by {jitter_effect:.4}"
+    );
+    assert!(error <= 0.03, "relative RMSE {error}");
+    assert!(jitter_effect > 2.0 * error, "{jitter_effect} vs {error}");
+}

@@ -82,7 +82,7 @@ struct CloudUniforms {
     phase_g_forward: f32,
     phase_g_back: f32,
     phase_blend: f32,
-    // Interleaved-gradient-noise jitter of the ray start: 0 off (step midpoints), 1 on.
+    // Blue-noise jitter of the ray start: 0 off (step midpoints), 1 on.
     jitter: u32,
     // Frame counter that animates the jitter.
     frame_index: u32,
@@ -158,6 +158,9 @@ struct CloudLayerGpu {
 @group(0) @binding(6) var weather_noise: texture_2d<f32>;
 // linear / linear / linear-mip, repeat.
 @group(0) @binding(7) var noise_sampler: sampler;
+// R32Float, BLUE_NOISE_SIZE², the ray-start jitter's blue noise (reference/blue_noise.rs). Bound
+// by the march pass only (binding 10; 8 and 9 belong to haze.wgsl).
+@group(0) @binding(10) var blue_noise: texture_2d<f32>;
 
 // Rust: the constants of the same names; see their docs there.
 const MAX_PROFILE_POINTS: u32 = 8u;
@@ -184,6 +187,9 @@ const FAR_AWAY: f32 = 3.0e38;
 // 1e-5 there because f64 has expm1).
 const SERIES_LIMIT: f32 = 0.1;
 const PI: f32 = 3.141592653589793;
+// Rust: the constants of the same names in reference/blue_noise.rs.
+const GOLDEN_RATIO_CONJUGATE: f32 = 0.6180339887498949;
+const JITTER_FRAME_PERIOD: u32 = 256u;
 
 fn saturate(x: f32) -> f32 {
     return clamp(x, 0.0, 1.0);
@@ -620,18 +626,21 @@ fn mean_step_transmittance(x_in: f32) -> f32 {
     return (1.0 - exp(-x)) / x;
 }
 
-// Interleaved gradient noise (Jimenez 2014), shifted 5.588238 pixels per frame (mod 64).
-// Rust: `interleaved_gradient_noise`.
-fn interleaved_gradient_noise(pixel: vec2<f32>, frame: u32) -> f32 {
-    let p = pixel + vec2<f32>(5.588238 * f32(frame % 64u));
-    return fract(52.9829189 * fract(dot(p, vec2<f32>(0.06711056, 0.00583715))));
+// fract(map[pixel mod size] + 0.618... * (frame mod 256)): the blue-noise map (an R32Float
+// texture of the values `reference::blue_noise::blue_noise_map` makes) animated per frame.
+// Rust: `blue_noise_jitter`.
+fn blue_noise_jitter(pixel: vec2<f32>, frame: u32) -> f32 {
+    let size = vec2<i32>(textureDimensions(blue_noise));
+    let texel = ((vec2<i32>(floor(pixel)) % size) + size) % size;
+    let sum = textureLoad(blue_noise, texel, 0).r + GOLDEN_RATIO_CONJUGATE * f32(frame % JITTER_FRAME_PERIOD);
+    return sum - floor(sum);
 }
 
-// Sample offset within each step: IGN when jitter is on, the midpoint 0.5 when off.
+// Sample offset within each step: blue noise when jitter is on, the midpoint 0.5 when off.
 // Rust: `ray_start_jitter`.
 fn ray_start_jitter(pixel: vec2<f32>) -> f32 {
     if clouds.jitter != 0u {
-        return interleaved_gradient_noise(pixel, clouds.frame_index);
+        return blue_noise_jitter(pixel, clouds.frame_index);
     }
     return 0.5;
 }

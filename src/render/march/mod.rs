@@ -5,14 +5,15 @@
 //! `march_clouds` from the shader library `clouds.wgsl`, which marches only the intervals where
 //! the ray crosses a layer shell around the planet, lights each sample with a light march toward
 //! the sun and multiple-scattering octaves, and integrates with Hillaire's energy-conserving
-//! step. The result `(L, T)` is blended onto the HDR main texture as `scene · T + L`, before
-//! tonemapping. The algorithm and its sources are documented in [`crate::reference::render`],
+//! step. Then `march_haze` (`haze.wgsl`, see [`crate::render::haze`]) marches the haze along the
+//! same ray and stacks it in front of and behind the clouds. The result `(L, T)` is blended onto
+//! the HDR main texture as `scene · T + L`, before tonemapping. The algorithm and its sources are documented in [`crate::reference::render`],
 //! the f64 CPU twin the GPU output is tested against.
 //!
 //! # What a frame costs
 //!
-//! Layers with zero coverage or density are not sent to the GPU; with no visible layer the pass
-//! does not run at all ([`CloudPassStats`] counts the views it marched). The pass runs after the
+//! Layers with zero coverage or density are not sent to the GPU; with no visible layer and no
+//! haze the pass does not run at all ([`CloudPassStats`] counts the views it marched). The pass runs after the
 //! main (opaque and transparent) passes and before post-processing, like Bevy's volumetric fog;
 //! transparent objects are therefore covered by clouds in front of the opaque depth behind them.
 //!
@@ -73,6 +74,7 @@ use crate::{
     CloudscapeSystems,
     layers::CloudLayer,
     reference::{
+        blue_noise::{BLUE_NOISE_SIZE, blue_noise_map},
         haze::HazeSettings,
         render::{MAX_FAR_COVERAGES, MAX_PROFILE_POINTS, MarchLayer, MarchSettings},
     },
@@ -690,6 +692,8 @@ pub struct CloudMarchPipeline {
     layout_multisampled: BindGroupLayoutDescriptor,
     fullscreen: FullscreenShader,
     shader: Handle<Shader>,
+    /// The ray-start jitter's blue noise ([`blue_noise_map`]), `R32Float`.
+    blue_noise: TextureView,
 }
 
 /// What a march pipeline is specialised on.
@@ -733,6 +737,7 @@ fn march_layout(label: &'static str, multisampled: bool) -> BindGroupLayoutDescr
                 sampler(SamplerBindingType::Filtering),
                 uniform_buffer::<GpuHazeUniforms>(false),
                 texture_2d(TextureSampleType::Float { filterable: true }),
+                texture_2d(TextureSampleType::Float { filterable: false }),
             ),
         ),
     )
@@ -757,12 +762,40 @@ fn init_cloud_march_pipeline(
     mut commands: Commands,
     asset_server: Res<AssetServer>,
     fullscreen: Res<FullscreenShader>,
+    device: Res<RenderDevice>,
+    queue: Res<RenderQueue>,
 ) {
+    let bytes: Vec<u8> = blue_noise_map()
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let blue_noise = device
+        .create_texture_with_data(
+            &queue,
+            &TextureDescriptor {
+                label: Some("cloud_blue_noise"),
+                size: Extent3d {
+                    width: BLUE_NOISE_SIZE,
+                    height: BLUE_NOISE_SIZE,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: TextureDimension::D2,
+                format: TextureFormat::R32Float,
+                usage: TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            },
+            TextureDataOrder::LayerMajor,
+            &bytes,
+        )
+        .create_view(&TextureViewDescriptor::default());
     commands.insert_resource(CloudMarchPipeline {
         layout: march_layout("cloud_march_layout", false),
         layout_multisampled: march_layout("cloud_march_layout_multisampled", true),
         fullscreen: fullscreen.clone(),
         shader: load_embedded_asset!(asset_server.as_ref(), "march.wgsl"),
+        blue_noise,
     });
     commands.insert_resource(CloudUpsamplePipeline {
         layout: upsample_layout("cloud_upsample_layout", false),
@@ -1052,6 +1085,7 @@ fn march_cloud_layers(
             &noise.sampler,
             haze,
             shadow_map,
+            &pipeline.blue_noise,
         )),
     );
     let upsample_bind_group = upsample.as_ref().map(|(targets, upsample, _)| {
