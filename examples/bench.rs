@@ -391,6 +391,7 @@ fn error_budget(scene: &Scene) {
                     direction.as_dvec3().to_array(),
                     f64::INFINITY,
                     0.5,
+                    None,
                 );
                 let l = r.radiance.map(|v| v as f32);
                 luminance(&l) * 1e-4 + 0.25 * r.transmittance

@@ -15,9 +15,10 @@ use bevy::{
 use bevy_cloudscape::{
     prelude::*,
     reference::{
-        haze::{ShadowMapImage, composite, march_haze},
+        haze::{composite, march_haze},
         noise::NoiseRecipe,
         render::{CloudTextures, march_clouds, ray_start_jitter},
+        shadow::ShadowMapImage,
     },
     render::march::{CloudPassStats, ExtractedCloudView},
 };
@@ -327,6 +328,7 @@ impl CloudRig {
                     direction,
                     f64::INFINITY,
                     jitter,
+                    shadow,
                 );
                 let haze = march_haze(
                     &view.settings,

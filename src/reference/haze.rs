@@ -40,10 +40,10 @@
 //! WGSL twin: `src/render/haze/haze.wgsl`.
 
 use super::render::{
-    MarchResult, MarchSettings, add, altitude_along_ray, dot, ground_distance, henyey_greenstein,
+    MarchResult, MarchSettings, altitude_along_ray, dot, ground_distance, henyey_greenstein,
     intersect_altitude_sphere, mean_step_transmittance, scale,
 };
-use super::shadow::ShadowMapFrame;
+use super::shadow::ShadowMapImage;
 
 /// Koschmieder's constant, `ln 50`: extinction × visibility for a 2 % contrast threshold.
 pub const KOSCHMIEDER_CONSTANT: f64 = 3.912;
@@ -144,47 +144,6 @@ pub fn mean_sun_transmittance(layers: &[super::render::MarchLayer], mu_sun: f64)
         .clamp(0.0, 1.0)
 }
 
-/// A cloud shadow map as the GPU holds it: the frame and one transmittance per texel, row `j`
-/// after row `j − 1` ([`crate::reference::shadow::cloud_shadow_map`] makes one).
-#[derive(Clone, Debug, PartialEq)]
-pub struct ShadowMapImage {
-    /// Where the map lies, relative to the camera of the view that reads it.
-    pub frame: ShadowMapFrame,
-    /// `frame.size²` transmittances, 0–1.
-    pub texels: Vec<f64>,
-}
-
-impl ShadowMapImage {
-    /// The map's texture coordinates `(u, v)` of the sun line through `position_m`: the inverse
-    /// of [`ShadowMapFrame::texel_position`]. WGSL twin: `shadow_map_uv`.
-    pub fn uv(frame: &ShadowMapFrame, position_m: [f64; 3]) -> [f64; 2] {
-        let q = add(position_m, scale(frame.centre_m, -1.0));
-        let x = dot(q, frame.axis_x_m) / dot(frame.axis_x_m, frame.axis_x_m);
-        let y = dot(q, frame.axis_y_m) / dot(frame.axis_y_m, frame.axis_y_m);
-        [0.5 * (1.0 - x), 0.5 * (1.0 + y)]
-    }
-
-    /// The sun's transmittance through the clouds on the sun line through `position_m`
-    /// (relative to the camera), filtered bilinearly between texel centres as a repeating linear
-    /// sampler does; 1 outside the map. WGSL twin: `sun_visibility`.
-    pub fn sample(&self, position_m: [f64; 3]) -> f64 {
-        let [u, v] = Self::uv(&self.frame, position_m);
-        if !(0.0..=1.0).contains(&u) || !(0.0..=1.0).contains(&v) {
-            return 1.0;
-        }
-        let n = self.frame.size.max(1);
-        let nf = f64::from(n);
-        let (x, y) = (u * nf - 0.5, v * nf - 0.5);
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let wrap = |i: f64| (i as i64).rem_euclid(i64::from(n)) as usize;
-        let texel = |i: f64, j: f64| self.texels[wrap(j) * n as usize + wrap(i)];
-        let top = texel(x0, y0) * (1.0 - fx) + texel(x0 + 1.0, y0) * fx;
-        let bottom = texel(x0, y0 + 1.0) * (1.0 - fx) + texel(x0 + 1.0, y0 + 1.0) * fx;
-        top * (1.0 - fy) + bottom * fy
-    }
-}
-
 /// The haze along one view ray: the part in front of the clouds and the part behind them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HazeResult {
@@ -266,7 +225,7 @@ pub fn march_haze(
         let sigma = haze.extinction_at(altitude);
         let x = sigma * dt;
         let sun = match shadow {
-            Some(map) => map.sample(scale(direction, t)),
+            Some(map) => map.ground_transmittance(scale(direction, t)),
             None => haze.sun_transmittance,
         };
         let weight = (-total_depth).exp() * dt * mean_step_transmittance(x) * sigma * haze.albedo;
@@ -317,6 +276,7 @@ pub fn composite(haze: &HazeResult, clouds: &MarchResult) -> MarchResult {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::reference::shadow::ShadowMapFrame;
 
     const UP: [f64; 3] = [0.0, 1.0, 0.0];
 
@@ -462,17 +422,21 @@ mod tests {
             axis_x_m: [-20_000.0, 0.0, 0.0],
             axis_y_m: [0.0, 0.0, 20_000.0],
             size,
+            cloud_range_m: [1000.0, 2000.0],
         };
         let texels = (0..size * size)
-            .map(|index| if index % size < size / 2 { 0.0 } else { 1.0 })
+            .map(|index| {
+                let t = if index % size < size / 2 { 0.0 } else { 1.0 };
+                [t, 0.0, 0.0, 0.0]
+            })
             .collect();
         let map = ShadowMapImage { frame, texels };
         // Texel u lies at centre + (1 − 2u) axis_x and axis_x points to −x, so u < 0.5 (the
         // shadowed half) is world −x.
-        assert_eq!(map.sample([-10_000.0, 0.0, 0.0]), 0.0);
-        assert_eq!(map.sample([10_000.0, 0.0, 0.0]), 1.0);
+        assert_eq!(map.ground_transmittance([-10_000.0, 0.0, 0.0]), 0.0);
+        assert_eq!(map.ground_transmittance([10_000.0, 0.0, 0.0]), 1.0);
         assert_eq!(
-            map.sample([50_000.0, 0.0, 0.0]),
+            map.ground_transmittance([50_000.0, 0.0, 0.0]),
             1.0,
             "outside the map: no shadow"
         );

@@ -69,6 +69,7 @@
 //! flip between zero and non-zero). With `Rgba32Float` textures of the same texel values the GPU
 //! matches this module to about 1e-4 per ray. Compare images, not single rays, on lavapipe.
 
+use super::shadow::ShadowMapImage;
 use super::noise::{
     NoiseRecipe, downsample_3d, generate_base, generate_detail, generate_weather, mip_level_count,
     mip_size, quantize_unorm8,
@@ -207,6 +208,11 @@ pub struct MarchSettings {
     pub jitter: bool,
     /// Frame counter that animates the jitter. Default 0.
     pub frame_index: u32,
+    /// From this distance along the view ray on, metres, a cloud sample takes its optical depth
+    /// toward the sun from the cloud shadow map ([`ShadowMapImage::sun_optical_depth`]) instead
+    /// of a light march, where the map covers it. Infinity (the default): always the light
+    /// march. The map is the `shadow` argument of [`march_clouds`] (on the GPU, the bound map).
+    pub sun_from_shadow_map_m: f64,
 }
 
 impl Default for MarchSettings {
@@ -234,6 +240,7 @@ impl Default for MarchSettings {
             pixel_angle_rad: 0.001,
             jitter: true,
             frame_index: 0,
+            sun_from_shadow_map_m: f64::INFINITY,
         }
     }
 }
@@ -1182,6 +1189,8 @@ pub fn ray_start_jitter(settings: &MarchSettings, pixel: [f64; 2]) -> f64 {
 /// One ray's state and constants, shared by the steps of [`march_clouds`].
 struct Ray<'a> {
     textures: &'a CloudTextures,
+    /// The cloud shadow map, for far samples' sun ([`MarchSettings::sun_from_shadow_map_m`]).
+    shadow: Option<&'a ShadowMapImage>,
     settings: &'a MarchSettings,
     layers: &'a [MarchLayer],
     camera_altitude_m: f64,
@@ -1283,16 +1292,23 @@ impl Ray<'_> {
         let mut sun = 0.0;
         if self.sun_on {
             let position = scale(self.direction, t);
-            let optical_depth = sun_optical_depth(
-                self.textures,
-                settings,
-                self.layers,
-                self.camera_altitude_m,
-                self.up,
-                position,
-                altitude,
-                footprint,
-            );
+            // Far samples read the sun's optical depth from the shadow map where it covers them.
+            let from_map = self
+                .shadow
+                .filter(|_| t >= settings.sun_from_shadow_map_m)
+                .and_then(|map| map.sun_optical_depth(position, altitude));
+            let optical_depth = from_map.unwrap_or_else(|| {
+                sun_optical_depth(
+                    self.textures,
+                    settings,
+                    self.layers,
+                    self.camera_altitude_m,
+                    self.up,
+                    position,
+                    altitude,
+                    footprint,
+                )
+            });
             if optical_depth >= 0.0 {
                 sun = multiple_scattering(settings, optical_depth, self.cos_sun);
             }
@@ -1388,7 +1404,9 @@ impl Ray<'_> {
 /// distance; cheap base-only samples stride through empty space and full-detail samples light
 /// the cloud (seed 002, "Optimization"); the march stops once the transmittance reaches
 /// [`MarchSettings::transmittance_cutoff`]. At most `2 · layers + 1` intervals are visited.
-/// WGSL twin: `march_clouds`.
+/// `shadow` is the cloud shadow map, read for the sun of samples beyond
+/// [`MarchSettings::sun_from_shadow_map_m`]. WGSL twin: `march_clouds`.
+#[allow(clippy::too_many_arguments)]
 pub fn march_clouds(
     textures: &CloudTextures,
     settings: &MarchSettings,
@@ -1398,6 +1416,7 @@ pub fn march_clouds(
     direction: [f64; 3],
     t_max: f64,
     jitter: f64,
+    shadow: Option<&ShadowMapImage>,
 ) -> MarchResult {
     let radius = settings.planet_radius_m;
     let mu = dot(direction, up).clamp(-1.0, 1.0);
@@ -1408,6 +1427,7 @@ pub fn march_clouds(
     let axes = horizontal_axes(up);
     let mut ray = Ray {
         textures,
+        shadow,
         settings,
         layers,
         camera_altitude_m,
@@ -1664,6 +1684,7 @@ mod tests {
             UP,
             f64::INFINITY,
             0.5,
+            None,
         )
     }
 
@@ -1966,6 +1987,7 @@ mod tests {
                         direction,
                         f64::INFINITY,
                         0.3,
+                        None,
                     );
                     assert_eq!(result, MarchResult::CLEAR);
                 }
@@ -2061,6 +2083,7 @@ mod tests {
                                     direction,
                                     t_max,
                                     0.999,
+                                    None,
                                 );
                                 let what = format!(
                                     "alt {altitude} mu {mu} sun {elevation}° t_max {t_max}"
@@ -2221,6 +2244,7 @@ mod tests {
                 UP,
                 f64::INFINITY,
                 0.5,
+                None,
             );
             assert_sane(&result, "cumulus");
             if result.transmittance < 0.99 {

@@ -51,9 +51,46 @@ pub struct ShadowMapFrame {
     pub axis_y_m: [f64; 3],
     /// Texels per side.
     pub size: u32,
+    /// `[bottom, top]`: the altitudes above the ground, metres, between which the layers lie
+    /// (the lowest base and the highest top). The optical depths of the map's levels are taken
+    /// at the top, at a third and two thirds of the way down, and at the bottom
+    /// ([`ShadowMapFrame::levels_m`]).
+    pub cloud_range_m: [f64; 2],
 }
 
 impl ShadowMapFrame {
+    /// The altitudes of the two inner levels, metres: a third and two thirds of the way down
+    /// from the top of [`ShadowMapFrame::cloud_range_m`].
+    pub fn levels_m(&self) -> [f64; 2] {
+        let [bottom, top] = self.cloud_range_m;
+        [top - (top - bottom) / 3.0, top - 2.0 * (top - bottom) / 3.0]
+    }
+
+    /// The optical depth toward the sun from the point at `altitude_m` on a sun line whose texel
+    /// holds `texel` (`[T, τ(z₁), τ(z₂), τ(bottom)]`, see [`cloud_shadow_map_texels`]): 0 above
+    /// the top, the whole column below the bottom, linear in altitude between the four levels.
+    /// WGSL twin: `map_sun_optical_depth`.
+    pub fn level_optical_depth(&self, texel: [f64; 4], altitude_m: f64) -> f64 {
+        let [bottom, top] = self.cloud_range_m;
+        let [z1, z2] = self.levels_m();
+        let knots = [(top, 0.0), (z1, texel[1]), (z2, texel[2]), (bottom, texel[3])];
+        if !(altitude_m < top) {
+            return 0.0;
+        }
+        for pair in knots.windows(2) {
+            let ((za, ta), (zb, tb)) = (pair[0], pair[1]);
+            if altitude_m >= zb {
+                let f = if za > zb {
+                    (za - altitude_m) / (za - zb)
+                } else {
+                    1.0
+                };
+                return ta + f * (tb - ta);
+            }
+        }
+        texel[3]
+    }
+
     /// A point (relative to the camera) on the sun line of texel `(i, j)`.
     pub fn texel_position(&self, i: u32, j: u32) -> [f64; 3] {
         let n = f64::from(self.size.max(1));
@@ -90,6 +127,30 @@ pub fn shadow_optical_depth(
     steps: u32,
     footprint_m: f64,
 ) -> f64 {
+    let above = [f64::INFINITY; 2];
+    shadow_optical_depths(
+        textures,
+        settings,
+        layers,
+        position_m,
+        steps,
+        footprint_m,
+        above,
+    )[2]
+}
+
+/// [`shadow_optical_depth`] split by altitude: `[τ above levels_m[0], τ above levels_m[1],
+/// τ]` along the sun line through `position_m`, where "above `z`" counts the samples whose
+/// altitude is at least `z`. WGSL twin: `shadow_optical_depths`.
+pub fn shadow_optical_depths(
+    textures: &CloudTextures,
+    settings: &MarchSettings,
+    layers: &[MarchLayer],
+    position_m: [f64; 3],
+    steps: u32,
+    footprint_m: f64,
+    levels_m: [f64; 2],
+) -> [f64; 3] {
     let radius = settings.planet_radius_m;
     let sun = settings.sun_direction;
     let altitude = altitude_of(settings, position_m);
@@ -112,7 +173,7 @@ pub fn shadow_optical_depth(
 
     let axes = horizontal_axes(settings.camera_up);
     let n = steps.clamp(1, MAX_SHADOW_STEPS);
-    let mut optical_depth = 0.0;
+    let mut optical_depth = [0.0; 3];
     let mut t = 0.0;
     for _ in 0..=2 * layers.len() {
         let [a, b] =
@@ -134,7 +195,13 @@ pub fn shadow_optical_depth(
                 footprint_m,
                 true,
             );
-            optical_depth += extinction * dt;
+            let x = extinction * dt;
+            for (depth, level) in optical_depth.iter_mut().zip(levels_m) {
+                if point_altitude >= level {
+                    *depth += x;
+                }
+            }
+            optical_depth[2] += x;
         }
         t = b;
     }
@@ -154,8 +221,39 @@ pub fn shadow_transmittance(
     (-shadow_optical_depth(textures, settings, layers, position_m, steps, footprint_m)).exp()
 }
 
-/// The whole map: `frame.size²` transmittances, row `j` (from the top) after row `j − 1`, each
-/// row `i = 0..size`. What the GPU pass writes (before 8-bit quantisation).
+/// The whole map as the GPU pass writes it (before rounding to half floats): `frame.size²`
+/// texels, row `j` (from the top) after row `j − 1`, each row `i = 0..size`. A texel is
+/// `[e^(−τ), τ above z₁, τ above z₂, τ]` on its sun line, with `τ` the optical depth of the whole
+/// column ([`shadow_optical_depths`]) and `z₁`, `z₂` the [`ShadowMapFrame::levels_m`]: the
+/// first channel is the ground's transmittance, which Bevy's light texture reads; the others
+/// let the march read the sun's optical depth at any altitude ([`ShadowMapFrame::level_optical_depth`]).
+pub fn cloud_shadow_map_texels(
+    textures: &CloudTextures,
+    settings: &MarchSettings,
+    layers: &[MarchLayer],
+    frame: &ShadowMapFrame,
+    steps: u32,
+) -> Vec<[f64; 4]> {
+    let footprint = frame.texel_m();
+    (0..frame.size)
+        .flat_map(|j| (0..frame.size).map(move |i| (i, j)))
+        .map(|(i, j)| {
+            let [g, b, a] = shadow_optical_depths(
+                textures,
+                settings,
+                layers,
+                frame.texel_position(i, j),
+                steps,
+                footprint,
+                frame.levels_m(),
+            );
+            [(-a).exp(), g, b, a]
+        })
+        .collect()
+}
+
+/// The ground transmittance of every texel of [`cloud_shadow_map_texels`]: the map's first
+/// channel.
 pub fn cloud_shadow_map(
     textures: &CloudTextures,
     settings: &MarchSettings,
@@ -163,20 +261,67 @@ pub fn cloud_shadow_map(
     frame: &ShadowMapFrame,
     steps: u32,
 ) -> Vec<f64> {
-    let footprint = frame.texel_m();
-    (0..frame.size)
-        .flat_map(|j| (0..frame.size).map(move |i| (i, j)))
-        .map(|(i, j)| {
-            shadow_transmittance(
-                textures,
-                settings,
-                layers,
-                frame.texel_position(i, j),
-                steps,
-                footprint,
-            )
-        })
+    cloud_shadow_map_texels(textures, settings, layers, frame, steps)
+        .into_iter()
+        .map(|texel| texel[0])
         .collect()
+}
+
+/// A cloud shadow map as the GPU holds it: its frame and texels ([`cloud_shadow_map_texels`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShadowMapImage {
+    /// Where the map lies, relative to the camera of the view that reads it.
+    pub frame: ShadowMapFrame,
+    /// `frame.size²` texels, `[T, τ(z₁), τ(z₂), τ]`.
+    pub texels: Vec<[f64; 4]>,
+}
+
+impl ShadowMapImage {
+    /// The map's texture coordinates `(u, v)` of the sun line through `position_m`: the inverse
+    /// of [`ShadowMapFrame::texel_position`]. WGSL twin: `shadow_map_uv`.
+    pub fn uv(frame: &ShadowMapFrame, position_m: [f64; 3]) -> [f64; 2] {
+        let q = add(position_m, scale(frame.centre_m, -1.0));
+        let x = dot(q, frame.axis_x_m) / dot(frame.axis_x_m, frame.axis_x_m);
+        let y = dot(q, frame.axis_y_m) / dot(frame.axis_y_m, frame.axis_y_m);
+        [0.5 * (1.0 - x), 0.5 * (1.0 + y)]
+    }
+
+    /// The texel on the sun line through `position_m` (relative to the camera), filtered
+    /// bilinearly between texel centres as a repeating linear sampler does; `None` outside the
+    /// map. WGSL twin: `sample_shadow_map`.
+    pub fn sample(&self, position_m: [f64; 3]) -> Option<[f64; 4]> {
+        let [u, v] = Self::uv(&self.frame, position_m);
+        if !(0.0..=1.0).contains(&u) || !(0.0..=1.0).contains(&v) {
+            return None;
+        }
+        let n = self.frame.size.max(1);
+        let nf = f64::from(n);
+        let (x, y) = (u * nf - 0.5, v * nf - 0.5);
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let wrap = |i: f64| (i as i64).rem_euclid(i64::from(n)) as usize;
+        let texel = |i: f64, j: f64| self.texels[wrap(j) * n as usize + wrap(i)];
+        let (a, b) = (texel(x0, y0), texel(x0 + 1.0, y0));
+        let (c, d) = (texel(x0, y0 + 1.0), texel(x0 + 1.0, y0 + 1.0));
+        Some(std::array::from_fn(|k| {
+            let top = a[k] * (1.0 - fx) + b[k] * fx;
+            let bottom = c[k] * (1.0 - fx) + d[k] * fx;
+            top * (1.0 - fy) + bottom * fy
+        }))
+    }
+
+    /// The sun's transmittance through the clouds to the ground on the sun line through
+    /// `position_m`, 1 outside the map (the light shafts' read). WGSL twin: `sun_visibility`.
+    pub fn ground_transmittance(&self, position_m: [f64; 3]) -> f64 {
+        self.sample(position_m).map_or(1.0, |texel| texel[0])
+    }
+
+    /// The optical depth toward the sun from `position_m` at `altitude_m`
+    /// ([`ShadowMapFrame::level_optical_depth`] of the filtered texel); `None` outside the map.
+    pub fn sun_optical_depth(&self, position_m: [f64; 3], altitude_m: f64) -> Option<f64> {
+        self.sample(position_m)
+            .map(|texel| self.frame.level_optical_depth(texel, altitude_m))
+    }
 }
 
 #[cfg(test)]
@@ -416,13 +561,61 @@ mod tests {
     }
 
     #[test]
+    fn map_levels_give_the_sun_optical_depth_inside_a_slab() {
+        // A homogeneous slab 1–2 km up (coverage 1: overcast), sun 40° high.
+        let textures = blob_textures(16, 0.2);
+        let sigma = 0.002;
+        let mut layer = blob_layer(1000.0, 2000.0, sigma, 20_000.0);
+        layer.coverage = 1.0;
+        let layers = [layer];
+        let settings = settings_with_sun(40.0, 180.0);
+        let frame = ShadowMapFrame {
+            centre_m: [0.0, 0.0, 0.0],
+            axis_x_m: [-1000.0, 0.0, 0.0],
+            axis_y_m: [0.0, 0.0, 1000.0],
+            size: 8,
+            cloud_range_m: [1000.0, 2000.0],
+        };
+        // 12 steps per interval: the levels at a third and two thirds fall on step boundaries.
+        let map = ShadowMapImage {
+            frame,
+            texels: cloud_shadow_map_texels(&textures, &settings, &layers, &frame, 12),
+        };
+        let mu = 40f64.to_radians().sin();
+        for altitude in [1100.0, 1500.0, 1900.0, 2500.0, 500.0] {
+            let point = [0.0, altitude, 0.0];
+            let from_map = map.sun_optical_depth(point, altitude).unwrap();
+            let exact = sigma * (2000.0 - altitude.clamp(1000.0, 2000.0)) / mu;
+            assert!(
+                (from_map - exact).abs() <= 0.01 * exact + 1e-9,
+                "{altitude} m: map {from_map}, exact {exact}"
+            );
+        }
+        // The ground channel is the whole column.
+        let ground = map.ground_transmittance([0.0, 0.0, 0.0]);
+        assert!((ground - (-sigma * 1000.0 / mu).exp()).abs() < 1e-3, "{ground}");
+        assert!(map.sample([5000.0, 0.0, 0.0]).is_none(), "outside the map");
+    }
+
+    #[test]
     fn texel_layout_matches_bevy_light_texture_projection() {
         let frame = ShadowMapFrame {
             centre_m: [10.0, 0.0, 0.0],
             axis_x_m: [100.0, 0.0, 0.0],
             axis_y_m: [0.0, 0.0, 100.0],
             size: 4,
+            cloud_range_m: [1000.0, 4000.0],
         };
+        assert_eq!(frame.levels_m(), [3000.0, 2000.0]);
+        // The levels' optical depths, interpolated in altitude.
+        let texel = [(-9.0f64).exp(), 2.0, 5.0, 9.0];
+        assert_eq!(frame.level_optical_depth(texel, 5000.0), 0.0);
+        assert_eq!(frame.level_optical_depth(texel, 4000.0), 0.0);
+        assert!((frame.level_optical_depth(texel, 3500.0) - 1.0).abs() < 1e-12);
+        assert!((frame.level_optical_depth(texel, 2500.0) - 3.5).abs() < 1e-12);
+        assert!((frame.level_optical_depth(texel, 1000.0) - 9.0).abs() < 1e-12);
+        assert_eq!(frame.level_optical_depth(texel, 10.0), 9.0);
+        assert_eq!(frame.level_optical_depth(texel, f64::NAN), 0.0);
         // Texel (0, 0) is at u = v = 1/8: local x = 0.75, y = −0.75.
         let p = frame.texel_position(0, 0);
         assert_eq!(p, [10.0 + 75.0, 0.0, -75.0]);

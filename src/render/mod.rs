@@ -89,6 +89,13 @@ pub struct VolumetricClouds {
     /// haze sample, so rays of light fall through the gaps in the clouds. Default true (`LOW`
     /// false: the haze uses the clouds' mean shade instead).
     pub light_shafts: bool,
+    /// From this distance along the view ray on, metres, cloud samples take the sun's optical
+    /// depth from the cloud shadow map (where it covers them: [`shadow::CloudShadows`] extent
+    /// around the camera) instead of a light march: one texture read instead of
+    /// [`VolumetricClouds::light_steps`] density samples, at the map's resolution. Without a map
+    /// (shadows off, night) the light march runs everywhere. Default 5 000 m (`LOW` 2 500,
+    /// `HIGH` 10 000, `ULTRA` infinity: never).
+    pub sun_from_shadow_map_m: f32,
 }
 
 impl VolumetricClouds {
@@ -102,6 +109,7 @@ impl VolumetricClouds {
         resolution_scale: 0.5,
         haze_steps: 8,
         light_shafts: false,
+        sun_from_shadow_map_m: 2_500.0,
         ..Self::MEDIUM
     };
     /// The default balance of speed and quality.
@@ -124,6 +132,7 @@ impl VolumetricClouds {
         phase_blend: 0.2,
         haze_steps: 16,
         light_shafts: true,
+        sun_from_shadow_map_m: 5_000.0,
     };
     /// More steps for close-ups and stills.
     pub const HIGH: Self = Self {
@@ -131,6 +140,7 @@ impl VolumetricClouds {
         primary_steps: 96,
         light_steps: 8,
         haze_steps: 24,
+        sun_from_shadow_map_m: 10_000.0,
         ..Self::MEDIUM
     };
     /// Many steps: screenshots and references.
@@ -140,6 +150,7 @@ impl VolumetricClouds {
         light_steps: 12,
         transmittance_cutoff: 0.002,
         haze_steps: 48,
+        sun_from_shadow_map_m: f32::INFINITY,
         ..Self::MEDIUM
     };
 }

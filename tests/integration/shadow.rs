@@ -19,12 +19,34 @@ use bevy_cloudscape::{
 use crate::common::scenes::*;
 use crate::harness::output_dir;
 
-/// The shadow map as read back: `(size, transmittance per texel)`, rows from the top.
-fn read_shadow_map(rig: &mut CloudRig) -> (u32, Vec<f64>) {
+/// An IEEE half float from its little-endian bytes.
+fn f16_to_f64(bytes: [u8; 2]) -> f64 {
+    let bits = u16::from_le_bytes(bytes);
+    let sign = if bits & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exponent = i32::from((bits >> 10) & 0x1f);
+    let mantissa = f64::from(bits & 0x3ff);
+    sign * match exponent {
+        0 => mantissa * 2f64.powi(-24),
+        31 => f64::INFINITY,
+        e => (1.0 + mantissa / 1024.0) * 2f64.powi(e - 15),
+    }
+}
+
+/// The shadow map as read back: `(size, [T, τ(z₁), τ(z₂), τ] per texel)`, rows from the top.
+fn read_shadow_texels(rig: &mut CloudRig) -> (u32, Vec<[f64; 4]>) {
     let map = rig.app.world().resource::<CloudShadowMap>().clone();
     let (_, bytes) = rig.app.read_image(&map.image, 0);
-    let texels = bytes.chunks(4).map(|t| f64::from(t[0]) / 255.0).collect();
+    let texels = bytes
+        .chunks(8)
+        .map(|t| std::array::from_fn(|c| f16_to_f64([t[2 * c], t[2 * c + 1]])))
+        .collect();
     (map.resolution, texels)
+}
+
+/// The shadow map's ground transmittance as read back: `(size, T per texel)`.
+fn read_shadow_map(rig: &mut CloudRig) -> (u32, Vec<f64>) {
+    let (size, texels) = read_shadow_texels(rig);
+    (size, texels.iter().map(|t| t[0]).collect())
 }
 
 /// The CPU twin of the map for the rig's current state (the state the last frame extracted).
@@ -259,7 +281,7 @@ fn cloud_shadows_darken_only_the_direct_sun_on_lit_ground() {
 /// haze with the clouds' mean transmittance instead, so the map really reaches the haze.
 #[test]
 fn light_shafts_follow_the_cloud_shadow_map() {
-    use bevy_cloudscape::{reference::haze::ShadowMapImage, render::haze::CloudShadowFrame};
+    use bevy_cloudscape::{reference::shadow::ShadowMapImage, render::haze::CloudShadowFrame};
     let size = UVec2::new(64, 36);
     let textures = CloudTextures::from_recipe(&small_recipe());
     let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
@@ -282,10 +304,10 @@ fn light_shafts_follow_the_cloud_shadow_map() {
     };
     rig.set_scene(&scene);
     let (gpu_l, _) = rig.render(4);
-    let (map_size, map) = read_shadow_map(&mut rig);
+    let (map_size, map) = read_shadow_texels(&mut rig);
     let (darkest, brightest) = map
         .iter()
-        .fold((1.0f64, 0.0f64), |(lo, hi), &t| (lo.min(t), hi.max(t)));
+        .fold((1.0f64, 0.0f64), |(lo, hi), t| (lo.min(t[0]), hi.max(t[0])));
     assert!(
         darkest < 0.3 && brightest > 0.95,
         "the map holds shadows and gaps"
@@ -326,4 +348,92 @@ fn light_shafts_follow_the_cloud_shadow_map() {
         without_map > 2.0 * with_map,
         "the shafts change the picture: {without_map} vs {with_map}"
     );
+}
+
+/// Far cloud samples take the sun's optical depth from the shadow map's levels instead of a
+/// light march: the GPU frame matches the CPU twin reading the same map, differs from the
+/// light-marched frame by more than that, and stays close to it (the levels' approximation).
+#[test]
+fn far_cloud_samples_take_the_sun_from_the_shadow_map() {
+    use bevy_cloudscape::{reference::shadow::ShadowMapImage, render::haze::CloudShadowFrame};
+    let size = UVec2::new(64, 36);
+    let textures = CloudTextures::from_recipe(&small_recipe());
+    let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
+    rig.app.world().insert_resource(CloudShadows {
+        enabled: true,
+        resolution: 256,
+        extent_m: 40_000.0,
+        steps: 12,
+    });
+    let scene = Scene {
+        name: "sun_from_map",
+        camera: looking(Vec3::new(0.0, 2.0, 0.0), 12.0, 0.0),
+        sun_deg: (35.0, 200.0),
+        layers: vec![layer(CloudKind::Cumulus, 0.5)],
+        // Every sample the map covers reads the sun from it.
+        settings: VolumetricClouds {
+            sun_from_shadow_map_m: 5_000.0,
+            ..settings(48)
+        },
+    };
+    rig.set_scene(&scene);
+    let (gpu_l, _) = rig.render(4);
+    let (map_size, texels) = read_shadow_texels(&mut rig);
+    let frame = rig
+        .app
+        .render_world()
+        .get_resource::<CloudShadowFrame>()
+        .expect("the shadow map was marched this frame")
+        .clone();
+    assert_eq!(frame.frame.size, map_size);
+    let camera_m = rig
+        .app
+        .world()
+        .get::<GlobalTransform>(rig.camera)
+        .unwrap()
+        .translation()
+        .as_dvec3();
+    let image = ShadowMapImage {
+        frame: frame.relative_to(camera_m),
+        texels,
+    };
+    let (map_l, _) = rig.reference_with_shadow(&textures, Some(&image));
+    let mut marched = rig.rendered_view.clone().unwrap();
+    marched.settings.sun_from_shadow_map_m = f64::INFINITY;
+    rig.rendered_view = Some(marched);
+    let (march_l, _) = rig.reference(&textures);
+    save_strip(
+        &output_dir().join("shadow_sun_from_map_gpu_cpu_marched.png"),
+        size,
+        &[&gpu_l, &map_l, &march_l],
+    );
+    let with_map = relative_rmse(&gpu_l, &map_l);
+    let against_march = relative_rmse(&gpu_l, &march_l);
+    let approximation = relative_rmse(&map_l, &march_l);
+    let mut truth_view = rig.rendered_view.clone().unwrap();
+    truth_view.settings.light_steps = 48;
+    rig.rendered_view = Some(truth_view);
+    let (truth_l, _) = rig.reference(&textures);
+    eprintln!(
+        "against 48 light steps: map {:.4}, 5-step light march {:.4}",
+        relative_rmse(&map_l, &truth_l),
+        relative_rmse(&march_l, &truth_l)
+    );
+    let mean = |image: &[[f32; 3]]| image.iter().map(luminance).sum::<f64>() / image.len() as f64;
+    eprintln!(
+        "mean luminance: GPU {:.4}, CPU map {:.4}, CPU light march {:.4}",
+        mean(&gpu_l),
+        mean(&map_l),
+        mean(&march_l)
+    );
+    eprintln!(
+        "sun from the map: relative RMSE GPU vs CPU (map) {with_map:.4}, GPU vs CPU (light \
+         march) {against_march:.4}; CPU map vs CPU light march {approximation:.4}"
+    );
+    assert!(with_map <= 0.03, "relative RMSE {with_map}");
+    assert!(
+        against_march > 1.5 * with_map,
+        "the map is read: {against_march} vs {with_map}"
+    );
+    assert!(approximation < 0.25, "the levels approximate the light march: {approximation}");
 }

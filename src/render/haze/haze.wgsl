@@ -6,11 +6,11 @@
 // Rust side: `src/render/haze/mod.rs`.
 
 #import bevy_cloudscape::clouds::{
-    clouds, noise_sampler, intersect_altitude_sphere, ground_distance, altitude_along_ray,
-    henyey_greenstein, mean_step_transmittance,
+    clouds, intersect_altitude_sphere, ground_distance, altitude_along_ray, henyey_greenstein,
+    mean_step_transmittance, shadow_map_uv, shadow_map_covers, sample_shadow_map,
 }
 
-// 80 bytes. Mirror in Rust: `GpuHazeUniforms` (`HazeSettings` is the f64 source).
+// 32 bytes. Mirror in Rust: `GpuHazeUniforms` (`HazeSettings` is the f64 source).
 struct HazeUniforms {
     // Extinction at the ground, 1/m; 0: no haze.
     extinction_per_m: f32,
@@ -26,17 +26,10 @@ struct HazeUniforms {
     shafts: u32,
     sun_transmittance: f32,
     pad: u32,
-    // The shadow map's centre relative to the camera, m.
-    map_centre_m: vec4<f32>,
-    // The map's half-extent axes divided by their squared length, 1/m
-    // (Rust: `ShadowMapImage::uv` divides by it).
-    map_axis_x: vec4<f32>,
-    map_axis_y: vec4<f32>,
 }
 
+// The cloud shadow map and its frame are the clouds library's (binding 9, `clouds.shadow_map_*`).
 @group(0) @binding(8) var<uniform> haze: HazeUniforms;
-// The cloud shadow map (red: the sun's transmittance), or a white texture without one.
-@group(0) @binding(9) var cloud_shadow_map: texture_2d<f32>;
 
 // Rust: the constants of the same names in reference/haze.rs.
 const MAX_HAZE_STEPS: u32 = 128u;
@@ -49,23 +42,18 @@ struct HazeResult {
     back: vec4<f32>,
 }
 
-// Rust: `ShadowMapImage::uv`.
-fn shadow_map_uv(position_m: vec3<f32>) -> vec2<f32> {
-    let q = position_m - haze.map_centre_m.xyz;
-    return vec2<f32>(0.5 * (1.0 - dot(q, haze.map_axis_x.xyz)), 0.5 * (1.0 + dot(q, haze.map_axis_y.xyz)));
-}
-
 // The sun's transmittance through the clouds at `position_m` (relative to the camera).
-// Rust: `ShadowMapImage::sample`, or `HazeSettings::sun_transmittance` without shafts.
+// Rust: `ShadowMapImage::ground_transmittance`, or `HazeSettings::sun_transmittance` without
+// shafts.
 fn sun_visibility(position_m: vec3<f32>) -> f32 {
     if haze.shafts == 0u {
         return haze.sun_transmittance;
     }
     let uv = shadow_map_uv(position_m);
-    if any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) {
+    if !shadow_map_covers(uv) {
         return 1.0;
     }
-    return textureSampleLevel(cloud_shadow_map, noise_sampler, uv, 0.0).r;
+    return sample_shadow_map(uv).r;
 }
 
 // Marches the haze along one view ray, split at the clouds' distance `split_m`.

@@ -142,7 +142,7 @@ impl CloudShadowFrame {
     }
 }
 
-/// The haze uniform, laid out as `HazeUniforms` in `haze.wgsl` (80 bytes).
+/// The haze uniform, laid out as `HazeUniforms` in `haze.wgsl` (32 bytes).
 #[derive(ShaderType, Clone, Debug, Default)]
 pub struct GpuHazeUniforms {
     extinction_per_m: f32,
@@ -153,29 +153,12 @@ pub struct GpuHazeUniforms {
     shafts: u32,
     sun_transmittance: f32,
     pad: u32,
-    map_centre_m: Vec4,
-    map_axis_x: Vec4,
-    map_axis_y: Vec4,
 }
 
 impl GpuHazeUniforms {
-    /// The uniform for `settings`, reading the shadow map at `map` (relative to the view's
-    /// camera) when the settings ask for shafts and there is a map.
-    pub fn new(settings: &HazeSettings, map: Option<&ShadowMapFrame>) -> Self {
-        let inverse = |a: [f64; 3]| {
-            let length_squared = DVec3::from_array(a).length_squared();
-            if length_squared > 0.0 {
-                Vec4::new(
-                    (a[0] / length_squared) as f32,
-                    (a[1] / length_squared) as f32,
-                    (a[2] / length_squared) as f32,
-                    0.0,
-                )
-            } else {
-                Vec4::ZERO
-            }
-        };
-        let map = map.filter(|_| settings.shafts);
+    /// The uniform for `settings`; `map_bound` says whether the pass binds a cloud shadow map
+    /// (the shafts read it when the settings ask for them).
+    pub fn new(settings: &HazeSettings, map_bound: bool) -> Self {
         let active = settings.is_active();
         Self {
             extinction_per_m: if active {
@@ -187,15 +170,9 @@ impl GpuHazeUniforms {
             albedo: settings.albedo as f32,
             asymmetry: settings.asymmetry as f32,
             steps: settings.steps,
-            shafts: u32::from(map.is_some()),
+            shafts: u32::from(settings.shafts && map_bound),
             sun_transmittance: settings.sun_transmittance as f32,
             pad: 0,
-            map_centre_m: map.map_or(Vec4::ZERO, |m| {
-                let c = m.centre_m;
-                Vec4::new(c[0] as f32, c[1] as f32, c[2] as f32, 0.0)
-            }),
-            map_axis_x: map.map_or(Vec4::ZERO, |m| inverse(m.axis_x_m)),
-            map_axis_y: map.map_or(Vec4::ZERO, |m| inverse(m.axis_y_m)),
         }
     }
 }
@@ -206,7 +183,7 @@ mod tests {
 
     #[test]
     fn uniform_layout_matches_the_shader() {
-        assert_eq!(GpuHazeUniforms::min_size().get(), 80);
+        assert_eq!(GpuHazeUniforms::min_size().get(), 32);
     }
 
     #[test]
@@ -243,20 +220,19 @@ mod tests {
             axis_x_m: [2.0e4, 0.0, 0.0],
             axis_y_m: [0.0, 0.0, 2.0e4],
             size: 256,
+            cloud_range_m: [1000.0, 3000.0],
         };
         let on = HazeSettings {
             extinction_per_m: 1e-4,
             ..HazeSettings::default()
         };
-        let uniform = GpuHazeUniforms::new(&on, Some(&frame));
-        assert_eq!(uniform.shafts, 1);
-        assert!((uniform.map_axis_x.x - 5.0e-5).abs() < 1e-12);
-        assert_eq!(GpuHazeUniforms::new(&on, None).shafts, 0);
+        assert_eq!(GpuHazeUniforms::new(&on, true).shafts, 1);
+        assert_eq!(GpuHazeUniforms::new(&on, false).shafts, 0);
         let off = HazeSettings {
             shafts: false,
             ..on
         };
-        assert_eq!(GpuHazeUniforms::new(&off, Some(&frame)).shafts, 0);
+        assert_eq!(GpuHazeUniforms::new(&off, true).shafts, 0);
         // A map that follows another camera is shifted into this view's frame.
         let shared = CloudShadowFrame {
             image: AssetId::default(),

@@ -23,7 +23,7 @@
 // `scene * T + L`. Radiance is in the units of `sun_illuminance` per steradian (lux -> cd/m^2)
 // *before exposure*: the entry shader multiplies it by the view's exposure.
 
-// Per-view uniforms, 160 bytes. Every scalar group fills 16 bytes before the first vec4, so the
+// Per-view uniforms, 224 bytes. Every scalar group fills 16 bytes before the first vec4, so the
 // layout is the same under WGSL's uniform rules and encase. Mirror in Rust (`MarchSettings` in
 // reference/render.rs is the f64 source of the same values):
 //
@@ -46,14 +46,18 @@
 //         phase_blend: f32,            // offset  56, weight of the back lobe
 //         jitter: u32,                 // offset  60, 0 off, 1 on
 //         frame_index: u32,            // offset  64
-//         pad_a: u32,              // offset  68
-//         pad_b: u32,              // offset  72
-//         pad_c: u32,              // offset  76
+//         sun_from_shadow_map_m: f32,  // offset  68, FAR_AWAY when off
+//         shadow_map: u32,             // offset  72, 0 none, 1 bound
+//         pad_c: u32,                  // offset  76
 //         camera_up: Vec4,             // offset  80, xyz unit up at the camera, w unused
 //         sun_direction: Vec4,         // offset  96, xyz unit toward the sun (world), w unused
 //         sun_illuminance: Vec4,       // offset 112, rgb lux at the clouds, atmosphere applied
 //         ambient_top: Vec4,           // offset 128, rgb sky radiance at cloud tops
 //         ambient_bottom: Vec4,        // offset 144, rgb sky radiance at cloud bases
+//         shadow_map_centre_m: Vec4,   // offset 160, xyz relative to the camera
+//         shadow_map_axis_x: Vec4,     // offset 176, axis / |axis|^2
+//         shadow_map_axis_y: Vec4,     // offset 192
+//         shadow_map_levels_m: Vec4,   // offset 208, (bottom, top, level 1, level 2)
 //     }
 struct CloudUniforms {
     // Radius of the ground sphere, m.
@@ -86,8 +90,11 @@ struct CloudUniforms {
     jitter: u32,
     // Frame counter that animates the jitter.
     frame_index: u32,
-    pad_a: u32,
-    pad_b: u32,
+    // From this distance on, m, cloud samples read the sun's optical depth from the shadow map
+    // where it covers them (Rust: `MarchSettings::sun_from_shadow_map_m`; FAR_AWAY: never).
+    sun_from_shadow_map_m: f32,
+    // 1 when `cloud_shadow_map` and the shadow_map_* fields hold a map, 0 otherwise.
+    shadow_map: u32,
     pad_c: u32,
     // xyz: unit vector from the planet centre through the camera.
     camera_up: vec4<f32>,
@@ -98,6 +105,14 @@ struct CloudUniforms {
     // rgb: ambient sky radiance at the top and at the bottom of a layer, cd/m^2.
     ambient_top: vec4<f32>,
     ambient_bottom: vec4<f32>,
+    // The shadow map's centre relative to the camera, m, and its half-extent axes divided by
+    // their squared length, 1/m (Rust: `ShadowMapImage::uv`).
+    shadow_map_centre_m: vec4<f32>,
+    shadow_map_axis_x: vec4<f32>,
+    shadow_map_axis_y: vec4<f32>,
+    // (bottom, top, level 1, level 2) altitudes of the map's levels, m
+    // (Rust: `ShadowMapFrame::cloud_range_m`, `levels_m`).
+    shadow_map_levels_m: vec4<f32>,
 }
 
 // One cloud layer, 176 bytes (an array stride of 176 in the storage buffer). Mirror in Rust
@@ -158,8 +173,12 @@ struct CloudLayerGpu {
 @group(0) @binding(6) var weather_noise: texture_2d<f32>;
 // linear / linear / linear-mip, repeat.
 @group(0) @binding(7) var noise_sampler: sampler;
+// The cloud shadow map (Rgba16Float: T to the ground, optical depths of the levels; see
+// reference/shadow.rs), or a white texture when `clouds.shadow_map` is 0. Bound by the march
+// pass only (binding 9; 8 belongs to haze.wgsl).
+@group(0) @binding(9) var cloud_shadow_map: texture_2d<f32>;
 // R32Float, BLUE_NOISE_SIZE², the ray-start jitter's blue noise (reference/blue_noise.rs). Bound
-// by the march pass only (binding 10; 8 and 9 belong to haze.wgsl).
+// by the march pass only (binding 10).
 @group(0) @binding(10) var blue_noise: texture_2d<f32>;
 
 // Rust: the constants of the same names; see their docs there.
@@ -730,7 +749,14 @@ fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32) -> bool {
     var sun = 0.0;
     if (*ray).sun_on {
         let position = (*ray).direction * t;
-        let optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint);
+        // Far samples read the sun's optical depth from the shadow map where it covers them.
+        var optical_depth = 0.0;
+        let uv = shadow_map_uv(position);
+        if t >= clouds.sun_from_shadow_map_m && shadow_map_covers(uv) {
+            optical_depth = map_sun_optical_depth(sample_shadow_map(uv), altitude);
+        } else {
+            optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint);
+        }
         if optical_depth >= 0.0 {
             sun = multiple_scattering(optical_depth, (*ray).cos_sun);
         }
@@ -868,8 +894,9 @@ fn altitude_of(position_m: vec3<f32>) -> f32 {
 // Optical depth of every layer along the sun line through `position_m` (relative to the
 // camera), from where the line meets the ground on the sun's side (its lowest point if it misses
 // the ground) up to space: `steps` midpoint samples per layer interval, full detail, mips for
-// `footprint_m`. Rust: `shadow_optical_depth` in reference/shadow.rs.
-fn shadow_optical_depth(position_m: vec3<f32>, steps: u32, footprint_m: f32) -> f32 {
+// `footprint_m`. Returns (depth of the samples at or above levels_m.x, at or above levels_m.y,
+// all). Rust: `shadow_optical_depths` in reference/shadow.rs.
+fn shadow_optical_depths(position_m: vec3<f32>, steps: u32, footprint_m: f32, levels_m: vec2<f32>) -> vec3<f32> {
     let radius = clouds.planet_radius_m;
     let sun = clouds.sun_direction.xyz;
     let up = clouds.camera_up.xyz;
@@ -892,7 +919,7 @@ fn shadow_optical_depth(position_m: vec3<f32>, steps: u32, footprint_m: f32) -> 
     let axes = horizontal_axes(up);
     let n = clamp(steps, 1u, MAX_SHADOW_STEPS);
     let count = cloud_layer_count();
-    var optical_depth = 0.0;
+    var optical_depth = vec3<f32>(0.0);
     var t = 0.0;
     for (var i = 0u; i <= 2u * count; i++) {
         let interval = next_cloud_interval(origin_altitude, origin_mu, t, FAR_AWAY);
@@ -905,9 +932,53 @@ fn shadow_optical_depth(position_m: vec3<f32>, steps: u32, footprint_m: f32) -> 
             let point = origin + sun * s;
             let point_altitude = altitude_along_ray(origin_altitude, origin_mu, s, radius);
             let horizontal = vec2<f32>(dot(point, axes.x), dot(point, axes.z));
-            optical_depth += total_extinction(horizontal, point_altitude, footprint_m, true) * dt;
+            let x = total_extinction(horizontal, point_altitude, footprint_m, true) * dt;
+            optical_depth += x * vec3<f32>(select(0.0, 1.0, point_altitude >= levels_m.x), select(0.0, 1.0, point_altitude >= levels_m.y), 1.0);
         }
         t = interval.y;
     }
     return optical_depth;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Reading the cloud shadow map (Rust: `ShadowMapImage` in reference/shadow.rs)
+// ---------------------------------------------------------------------------------------------
+
+// Rust: `ShadowMapImage::uv`.
+fn shadow_map_uv(position_m: vec3<f32>) -> vec2<f32> {
+    let q = position_m - clouds.shadow_map_centre_m.xyz;
+    return vec2<f32>(0.5 * (1.0 - dot(q, clouds.shadow_map_axis_x.xyz)), 0.5 * (1.0 + dot(q, clouds.shadow_map_axis_y.xyz)));
+}
+
+// Whether a shadow map is bound and covers `uv`.
+fn shadow_map_covers(uv: vec2<f32>) -> bool {
+    return clouds.shadow_map != 0u && all(uv >= vec2<f32>(0.0)) && all(uv <= vec2<f32>(1.0));
+}
+
+// The filtered texel on the sun line through `position_m`. Rust: `ShadowMapImage::sample`.
+fn sample_shadow_map(uv: vec2<f32>) -> vec4<f32> {
+    return textureSampleLevel(cloud_shadow_map, noise_sampler, uv, 0.0);
+}
+
+// Optical depth toward the sun from the point at `altitude_m` on a sun line whose texel is
+// `texel`. Rust: `ShadowMapFrame::level_optical_depth`.
+fn map_sun_optical_depth(texel: vec4<f32>, altitude_m: f32) -> f32 {
+    let levels = clouds.shadow_map_levels_m;
+    let bottom = levels.x;
+    let top = levels.y;
+    if !(altitude_m < top) {
+        return 0.0;
+    }
+    let z = vec4<f32>(top, levels.z, levels.w, bottom);
+    let tau = vec4<f32>(0.0, texel.y, texel.z, texel.w);
+    for (var i = 0u; i < 3u; i++) {
+        if altitude_m >= z[i + 1u] {
+            var f = 1.0;
+            if z[i] > z[i + 1u] {
+                f = (z[i] - altitude_m) / (z[i] - z[i + 1u]);
+            }
+            return tau[i] + f * (tau[i + 1u] - tau[i]);
+        }
+    }
+    return texel.w;
 }

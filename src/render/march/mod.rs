@@ -77,6 +77,7 @@ use crate::{
         blue_noise::{BLUE_NOISE_SIZE, blue_noise_map},
         haze::HazeSettings,
         render::{MAX_FAR_COVERAGES, MAX_PROFILE_POINTS, MarchLayer, MarchSettings},
+        shadow::ShadowMapFrame,
     },
     sky::{SceneClock, Sun, light},
 };
@@ -295,6 +296,11 @@ pub fn march_inputs<'a>(
         pixel_angle_rad,
         jitter: settings.jitter,
         frame_index,
+        sun_from_shadow_map_m: if settings.sun_from_shadow_map_m.is_nan() {
+            f64::INFINITY
+        } else {
+            f64::from(settings.sun_from_shadow_map_m.max(0.0))
+        },
         ..default()
     };
 
@@ -431,7 +437,7 @@ fn march_far_coverage(march: &mut MarchLayer, layer: &CloudLayer, camera: DVec3)
     march.far_count = count;
 }
 
-/// Per-view uniforms, laid out as `CloudUniforms` in `clouds.wgsl` (160 bytes).
+/// Per-view uniforms, laid out as `CloudUniforms` in `clouds.wgsl` (224 bytes).
 #[derive(ShaderType, Clone, Debug, Default)]
 pub struct GpuCloudUniforms {
     planet_radius_m: f32,
@@ -451,14 +457,32 @@ pub struct GpuCloudUniforms {
     phase_blend: f32,
     jitter: u32,
     frame_index: u32,
-    pad_a: u32,
-    pad_b: u32,
+    sun_from_shadow_map_m: f32,
+    shadow_map: u32,
     pad_c: u32,
     camera_up: Vec4,
     sun_direction: Vec4,
     sun_illuminance: Vec4,
     ambient_top: Vec4,
     ambient_bottom: Vec4,
+    shadow_map_centre_m: Vec4,
+    shadow_map_axis_x: Vec4,
+    shadow_map_axis_y: Vec4,
+    shadow_map_levels_m: Vec4,
+}
+
+/// f32 has no infinity the shader can compare safely: "never" is this (WGSL: `FAR_AWAY`).
+const FAR_AWAY: f32 = 3.0e38;
+
+/// `axis / |axis|²`: what a dot product with turns a position into the map's local coordinate.
+fn inverse_axis(axis: [f64; 3]) -> Vec4 {
+    let v = DVec3::from_array(axis);
+    let length_squared = v.length_squared();
+    if length_squared > 0.0 {
+        (v / length_squared).as_vec3().extend(0.0)
+    } else {
+        Vec4::ZERO
+    }
 }
 
 fn vec4(xyz: [f64; 3]) -> Vec4 {
@@ -466,8 +490,15 @@ fn vec4(xyz: [f64; 3]) -> Vec4 {
 }
 
 impl GpuCloudUniforms {
-    /// The uniforms for `settings` with `layer_count` layers in the storage buffer.
-    pub fn new(settings: &MarchSettings, layer_count: u32) -> Self {
+    /// The uniforms for `settings` with `layer_count` layers in the storage buffer, and the
+    /// cloud shadow map's frame (relative to the view's camera) when one is bound.
+    pub fn new(settings: &MarchSettings, layer_count: u32, map: Option<&ShadowMapFrame>) -> Self {
+        let sun_from_map = match map {
+            Some(_) if settings.sun_from_shadow_map_m < f64::from(FAR_AWAY) => {
+                settings.sun_from_shadow_map_m.max(0.0) as f32
+            }
+            _ => FAR_AWAY,
+        };
         Self {
             planet_radius_m: settings.planet_radius_m as f32,
             camera_altitude_m: settings.camera_altitude_m as f32,
@@ -486,14 +517,22 @@ impl GpuCloudUniforms {
             phase_blend: settings.phase_blend as f32,
             jitter: u32::from(settings.jitter),
             frame_index: settings.frame_index,
-            pad_a: 0,
-            pad_b: 0,
+            sun_from_shadow_map_m: sun_from_map,
+            shadow_map: u32::from(map.is_some()),
             pad_c: 0,
             camera_up: vec4(settings.camera_up),
             sun_direction: vec4(settings.sun_direction),
             sun_illuminance: vec4(settings.sun_illuminance),
             ambient_top: vec4(settings.ambient_top),
             ambient_bottom: vec4(settings.ambient_bottom),
+            shadow_map_centre_m: map.map_or(Vec4::ZERO, |m| vec4(m.centre_m)),
+            shadow_map_axis_x: map.map_or(Vec4::ZERO, |m| inverse_axis(m.axis_x_m)),
+            shadow_map_axis_y: map.map_or(Vec4::ZERO, |m| inverse_axis(m.axis_y_m)),
+            shadow_map_levels_m: map.map_or(Vec4::ZERO, |m| {
+                let [bottom, top] = m.cloud_range_m;
+                let [z1, z2] = m.levels_m();
+                Vec4::new(bottom as f32, top as f32, z1 as f32, z2 as f32)
+            }),
         }
     }
 }
@@ -663,17 +702,20 @@ fn prepare_cloud_view_buffers(
             // Haze alone: a storage binding may not be empty; this layer is never read.
             gpu_layers.push(GpuCloudLayer::default());
         }
-        let mut uniforms = UniformBuffer::from(GpuCloudUniforms::new(&view.settings, layer_count));
+        // The cloud shadow map, for the light shafts and the sun of far samples.
+        let map = shadow.as_deref();
+        let frame = map.map(|m| m.relative_to(view.camera_m));
+        let mut uniforms = UniformBuffer::from(GpuCloudUniforms::new(
+            &view.settings,
+            layer_count,
+            frame.as_ref(),
+        ));
         uniforms.set_label(Some("cloud_march_uniforms"));
         uniforms.write_buffer(&device, &queue);
         let mut layers = StorageBuffer::from(gpu_layers);
         layers.set_label(Some("cloud_march_layers"));
         layers.write_buffer(&device, &queue);
-        let map = shadow
-            .as_deref()
-            .filter(|_| view.haze.shafts && view.haze.is_active());
-        let frame = map.map(|m| m.relative_to(view.camera_m));
-        let mut haze = UniformBuffer::from(GpuHazeUniforms::new(&view.haze, frame.as_ref()));
+        let mut haze = UniformBuffer::from(GpuHazeUniforms::new(&view.haze, map.is_some()));
         haze.set_label(Some("cloud_haze_uniforms"));
         haze.write_buffer(&device, &queue);
         commands.entity(entity).insert(CloudViewBuffers {
@@ -1189,7 +1231,7 @@ mod tests {
 
     #[test]
     fn gpu_structs_match_the_shader_layout() {
-        assert_eq!(GpuCloudUniforms::min_size().get(), 160);
+        assert_eq!(GpuCloudUniforms::min_size().get(), 224);
         assert_eq!(GpuCloudLayer::min_size().get(), 176);
     }
 
@@ -1276,6 +1318,7 @@ mod tests {
             [1.0, 0.0, 0.0],
             3_000.0,
             0.5,
+            None,
         );
         let expected = (-sigma * 3_000.0).exp();
         assert!(

@@ -131,7 +131,10 @@ impl CloudShadows {
 }
 
 /// The shadow map's image (main world), made by the plugin and given to the sun light as its
-/// `DirectionalLightTexture`. `Rgba8Unorm`, transmittance in every colour channel.
+/// `DirectionalLightTexture`. `Rgba16Float`: red the transmittance to the ground (what Bevy's
+/// light texture reads), green, blue and alpha the optical depth toward the sun from two levels
+/// inside the layers and from their bottom
+/// ([`cloud_shadow_map_texels`](crate::reference::shadow::cloud_shadow_map_texels)).
 #[derive(Resource, Clone, Debug)]
 pub struct CloudShadowMap {
     /// The image the GPU pass writes.
@@ -215,7 +218,16 @@ fn shadow_camera<'a>(
         .map(|(_, settings, transform)| (settings, transform))
 }
 
-/// A new map image, filled with 1 (no shadow).
+/// The map's texel format: half floats, for the optical depths of the levels.
+pub const SHADOW_MAP_FORMAT: TextureFormat = TextureFormat::Rgba16Float;
+
+/// A texel of no shadow, as `Rgba16Float` bytes: transmittance 1, optical depths 0.
+const NO_SHADOW_TEXEL: [u8; 8] = {
+    let one = 0x3c00_u16.to_le_bytes();
+    [one[0], one[1], 0, 0, 0, 0, 0, 0]
+};
+
+/// A new map image, filled with no shadow.
 fn new_shadow_image(resolution: u32) -> Image {
     let mut image = Image::new_fill(
         Extent3d {
@@ -224,8 +236,8 @@ fn new_shadow_image(resolution: u32) -> Image {
             depth_or_array_layers: 1,
         },
         TextureDimension::D2,
-        &[255; 4],
-        TextureFormat::Rgba8Unorm,
+        &NO_SHADOW_TEXEL,
+        SHADOW_MAP_FORMAT,
         RenderAssetUsages::RENDER_WORLD,
     );
     image.texture_descriptor.usage |= TextureUsages::STORAGE_BINDING | TextureUsages::COPY_SRC;
@@ -369,6 +381,16 @@ pub fn shadow_inputs<'a>(
         axis_x_m: matrix.x_axis.as_dvec3().to_array(),
         axis_y_m: matrix.y_axis.as_dvec3().to_array(),
         size: settings.resolution,
+        cloud_range_m: [
+            march_layers
+                .iter()
+                .map(|l| l.base_m)
+                .fold(f64::INFINITY, f64::min),
+            march_layers
+                .iter()
+                .map(|l| l.top_m)
+                .fold(f64::NEG_INFINITY, f64::max),
+        ],
     };
     Some((march, march_layers, frame))
 }
@@ -439,7 +461,7 @@ fn extract_cloud_shadow(
     };
 }
 
-/// The shadow uniform, laid out as `ShadowUniforms` in `shadow.wgsl` (64 bytes).
+/// The shadow uniform, laid out as `ShadowUniforms` in `shadow.wgsl` (80 bytes).
 #[derive(ShaderType, Clone, Debug, Default)]
 struct GpuShadowUniforms {
     centre_m: Vec4,
@@ -449,6 +471,7 @@ struct GpuShadowUniforms {
     steps: u32,
     footprint_m: f32,
     pad: u32,
+    levels_m: Vec4,
 }
 
 impl GpuShadowUniforms {
@@ -462,6 +485,10 @@ impl GpuShadowUniforms {
             steps,
             footprint_m: frame.texel_m() as f32,
             pad: 0,
+            levels_m: {
+                let [z1, z2] = frame.levels_m();
+                Vec4::new(z1 as f32, z2 as f32, 0.0, 0.0)
+            },
         }
     }
 }
@@ -482,7 +509,7 @@ fn init_cloud_shadow_pipeline(
         &BindGroupLayoutEntries::sequential(
             ShaderStages::COMPUTE,
             (
-                texture_storage_2d(TextureFormat::Rgba8Unorm, StorageTextureAccess::WriteOnly),
+                texture_storage_2d(SHADOW_MAP_FORMAT, StorageTextureAccess::WriteOnly),
                 uniform_buffer::<GpuShadowUniforms>(false),
                 uniform_buffer::<GpuCloudUniforms>(false),
                 storage_buffer_read_only::<GpuCloudLayer>(false),
@@ -540,13 +567,13 @@ fn prepare_cloud_shadow(
                 return;
             };
             let size = gpu.texture.size();
-            let ones = vec![255_u8; (size.width * size.height * 4) as usize];
+            let ones = NO_SHADOW_TEXEL.repeat((size.width * size.height) as usize);
             queue.write_texture(
                 gpu.texture.as_image_copy(),
                 &ones,
                 TexelCopyBufferLayout {
                     offset: 0,
-                    bytes_per_row: Some(size.width * 4),
+                    bytes_per_row: Some(size.width * NO_SHADOW_TEXEL.len() as u32),
                     rows_per_image: Some(size.height),
                 },
                 size,
@@ -570,7 +597,7 @@ fn prepare_cloud_shadow(
             }
             let gpu_layers: Vec<GpuCloudLayer> = layers.iter().map(GpuCloudLayer::from).collect();
             let mut cloud_uniforms =
-                UniformBuffer::from(GpuCloudUniforms::new(settings, gpu_layers.len() as u32));
+                UniformBuffer::from(GpuCloudUniforms::new(settings, gpu_layers.len() as u32, None));
             cloud_uniforms.write_buffer(&device, &queue);
             let mut layer_buffer = StorageBuffer::from(gpu_layers);
             layer_buffer.write_buffer(&device, &queue);
@@ -648,7 +675,7 @@ mod tests {
 
     #[test]
     fn uniform_layout_matches_the_shader() {
-        assert_eq!(GpuShadowUniforms::min_size().get(), 64);
+        assert_eq!(GpuShadowUniforms::min_size().get(), 80);
     }
 
     #[test]
