@@ -69,11 +69,11 @@
 //! flip between zero and non-zero). With `Rgba32Float` textures of the same texel values the GPU
 //! matches this module to about 1e-4 per ray. Compare images, not single rays, on lavapipe.
 
-use super::shadow::ShadowMapImage;
 use super::noise::{
     NoiseRecipe, downsample_3d, generate_base, generate_detail, generate_weather, mip_level_count,
     mip_size, quantize_unorm8,
 };
+use super::shadow::ShadowMapImage;
 
 /// Earth's mean radius in metres, the default [`MarchSettings::planet_radius_m`].
 pub const EARTH_RADIUS_M: f64 = 6_371_000.0;
@@ -208,10 +208,12 @@ pub struct MarchSettings {
     pub jitter: bool,
     /// Frame counter that animates the jitter. Default 0.
     pub frame_index: u32,
-    /// From this distance along the view ray on, metres, a cloud sample takes its optical depth
-    /// toward the sun from the cloud shadow map ([`ShadowMapImage::sun_optical_depth`]) instead
-    /// of a light march, where the map covers it. Infinity (the default): always the light
-    /// march. The map is the `shadow` argument of [`march_clouds`] (on the GPU, the bound map).
+    /// From this distance along the view ray on, metres, a cloud sample light-marches only the
+    /// first [`SHADOW_MAP_NEAR_TEXELS`] texels of the cloud shadow map toward the sun, in at most
+    /// [`SHADOW_MAP_NEAR_STEPS`] steps, and takes the rest of its optical depth from the map
+    /// ([`ShadowMapImage::sun_optical_depth`] at the end of that march), where the map covers it.
+    /// Infinity (the default): always the full light march. The map is the `shadow` argument of
+    /// [`march_clouds`] (on the GPU, the bound map).
     pub sun_from_shadow_map_m: f64,
 }
 
@@ -1098,9 +1100,37 @@ pub fn light_march_distance(
     distance
 }
 
+/// The cosine of the sun's zenith angle at `position_m` (relative to a camera at
+/// `camera_altitude_m` with local vertical `up`), whose altitude is `altitude_m`: the local up
+/// there is `(A·up + p) / (R + alt)`. WGSL twin: inline in `sun_optical_depth`.
+fn point_mu_sun(
+    settings: &MarchSettings,
+    camera_altitude_m: f64,
+    up: [f64; 3],
+    position_m: [f64; 3],
+    altitude_m: f64,
+) -> f64 {
+    let radius = settings.planet_radius_m;
+    let sun = settings.sun_direction;
+    (((radius + camera_altitude_m) * dot(sun, up) + dot(sun, position_m)) / (radius + altitude_m))
+        .clamp(-1.0, 1.0)
+}
+
+/// How far, in shadow-map texels, a far sample's own light march goes before the cloud shadow
+/// map takes over ([`MarchSettings::sun_from_shadow_map_m`]): the map's texels blur a cloud's
+/// edge, and the sample's light depends most on the cloud right next to it. WGSL twin:
+/// `SHADOW_MAP_NEAR_TEXELS`.
+pub const SHADOW_MAP_NEAR_TEXELS: f64 = 4.0;
+
+/// Most light-march steps over those first texels (fewer than a full light march: the saving).
+/// WGSL twin: `SHADOW_MAP_NEAR_STEPS`.
+pub const SHADOW_MAP_NEAR_STEPS: u32 = 2;
+
 /// Optical depth toward the sun from the point `position_m` (relative to a camera at
-/// `camera_altitude_m` with local vertical `up`) at `altitude_m`, by a light march of [`MarchSettings::light_steps`] steps over
-/// [`light_march_distance`]; negative when the ground blocks the sun.
+/// `camera_altitude_m` with local vertical `up`) at `altitude_m`, by a light march of
+/// `steps` steps (at most [`MAX_LIGHT_STEPS`]; the march uses [`MarchSettings::light_steps`])
+/// over [`light_march_distance`], or over the first `max_distance_m` metres of it; negative when
+/// the ground blocks the sun.
 ///
 /// Step boundaries lie at `D (k / n)²`: short steps near the point, where the self-shadowing
 /// detail is, long ones far away; each step samples its midpoint, so a homogeneous layer is
@@ -1117,18 +1147,18 @@ pub fn sun_optical_depth(
     position_m: [f64; 3],
     altitude_m: f64,
     footprint_m: f64,
+    max_distance_m: f64,
+    steps: u32,
 ) -> f64 {
     let radius = settings.planet_radius_m;
     let sun = settings.sun_direction;
-    let camera_radius = radius + camera_altitude_m;
-    // Local up at the point is (A·up + p) / (R + alt); only its dot with the sun is needed.
-    let mu_sun = ((camera_radius * dot(sun, up) + dot(sun, position_m)) / (radius + altitude_m))
-        .clamp(-1.0, 1.0);
+    let mu_sun = point_mu_sun(settings, camera_altitude_m, up, position_m, altitude_m);
     let distance = light_march_distance(layers, radius, altitude_m, mu_sun);
     if distance < 0.0 {
         return -1.0;
     }
-    let steps = settings.light_steps.min(MAX_LIGHT_STEPS);
+    let distance = distance.min(max_distance_m);
+    let steps = steps.min(MAX_LIGHT_STEPS);
     if steps == 0 || distance == 0.0 {
         return 0.0;
     }
@@ -1292,12 +1322,7 @@ impl Ray<'_> {
         let mut sun = 0.0;
         if self.sun_on {
             let position = scale(self.direction, t);
-            // Far samples read the sun's optical depth from the shadow map where it covers them.
-            let from_map = self
-                .shadow
-                .filter(|_| t >= settings.sun_from_shadow_map_m)
-                .and_then(|map| map.sun_optical_depth(position, altitude));
-            let optical_depth = from_map.unwrap_or_else(|| {
+            let light_march = |max_distance: f64, steps: u32| {
                 sun_optical_depth(
                     self.textures,
                     settings,
@@ -1307,8 +1332,38 @@ impl Ray<'_> {
                     position,
                     altitude,
                     footprint,
+                    max_distance,
+                    steps,
                 )
-            });
+            };
+            // A far sample marches only the first texels toward the sun and reads the rest of
+            // the way from the shadow map, where the map covers it.
+            let from_map = self
+                .shadow
+                .filter(|_| t >= settings.sun_from_shadow_map_m)
+                .and_then(|map| {
+                    let near = SHADOW_MAP_NEAR_TEXELS * map.frame.texel_m();
+                    let mu_sun = point_mu_sun(
+                        settings,
+                        self.camera_altitude_m,
+                        self.up,
+                        position,
+                        altitude,
+                    );
+                    let end = add(position, scale(settings.sun_direction, near));
+                    let end_altitude =
+                        altitude_along_ray(altitude, mu_sun, near, settings.planet_radius_m);
+                    let far = map.sun_optical_depth(end, end_altitude)?;
+                    let near_depth =
+                        light_march(near, settings.light_steps.min(SHADOW_MAP_NEAR_STEPS));
+                    Some(if near_depth < 0.0 {
+                        near_depth
+                    } else {
+                        near_depth + far
+                    })
+                });
+            let optical_depth =
+                from_map.unwrap_or_else(|| light_march(f64::INFINITY, settings.light_steps));
             if optical_depth >= 0.0 {
                 sun = multiple_scattering(settings, optical_depth, self.cos_sun);
             }
@@ -1525,6 +1580,8 @@ pub fn transmittance_to_sun(
         position_m,
         altitude,
         0.0,
+        f64::INFINITY,
+        settings.light_steps,
     );
     if optical_depth < 0.0 {
         0.0

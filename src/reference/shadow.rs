@@ -12,6 +12,13 @@
 //! wind and the sun because the layers and the sun do, and is soft where the clouds are thin
 //! because `e^(−τ)` is.
 //!
+//! The march also reads the map, for the sun of far cloud samples: each texel holds, besides the
+//! ground's transmittance, a four-knot "deep shadow map" of its line (Lokovic & Veach 2000,
+//! "Deep shadow maps"): the altitudes where the cloud starts and where its optical depth from the
+//! top reaches 1 and 4 ([`ShadowColumn`]). The optical depth at any altitude is linear between
+//! the knots ([`ShadowMapFrame::column_optical_depth`]), decoded per texel and then blended
+//! between the four nearest texels ([`ShadowMapImage::sun_optical_depth`]).
+//!
 //! Two approximations follow from "one value per line":
 //! - a surface point *above* or *inside* a layer (a summit poking through stratus) is shadowed as
 //!   if it stood on the ground below, which over-darkens it; Bern's hills are far below the cloud
@@ -30,7 +37,8 @@
 
 use super::render::{
     CloudTextures, MarchLayer, MarchSettings, NO_HIT, add, altitude_along_ray, altitude_of, dot,
-    horizontal_axes, intersect_altitude_sphere, next_cloud_interval, scale, total_extinction,
+    horizontal_axes, intersect_altitude_sphere, is_positive, next_cloud_interval, scale,
+    total_extinction,
 };
 
 /// Most steps per layer interval of the shadow march ([`shadow_optical_depth`]). WGSL twin:
@@ -52,29 +60,25 @@ pub struct ShadowMapFrame {
     /// Texels per side.
     pub size: u32,
     /// `[bottom, top]`: the altitudes above the ground, metres, between which the layers lie
-    /// (the lowest base and the highest top). The optical depths of the map's levels are taken
-    /// at the top, at a third and two thirds of the way down, and at the bottom
-    /// ([`ShadowMapFrame::levels_m`]).
+    /// (the lowest base and the highest top). A clear sun line reports `bottom` as its knots.
     pub cloud_range_m: [f64; 2],
 }
 
 impl ShadowMapFrame {
-    /// The altitudes of the two inner levels, metres: a third and two thirds of the way down
-    /// from the top of [`ShadowMapFrame::cloud_range_m`].
-    pub fn levels_m(&self) -> [f64; 2] {
-        let [bottom, top] = self.cloud_range_m;
-        [top - (top - bottom) / 3.0, top - 2.0 * (top - bottom) / 3.0]
-    }
-
     /// The optical depth toward the sun from the point at `altitude_m` on a sun line whose texel
-    /// holds `texel` (`[T, τ(z₁), τ(z₂), τ(bottom)]`, see [`cloud_shadow_map_texels`]): 0 above
-    /// the top, the whole column below the bottom, linear in altitude between the four levels.
-    /// WGSL twin: `map_sun_optical_depth`.
-    pub fn level_optical_depth(&self, texel: [f64; 4], altitude_m: f64) -> f64 {
-        let [bottom, top] = self.cloud_range_m;
-        let [z1, z2] = self.levels_m();
-        let knots = [(top, 0.0), (z1, texel[1]), (z2, texel[2]), (bottom, texel[3])];
-        if !(altitude_m < top) {
+    /// holds `texel` (`[e^(−τ), top, knot₁, knot₂]`, see [`cloud_shadow_map_texels`]): linear in
+    /// altitude through the knots `(top, 0)`, `(knot₁, min(1, τ))`, `(knot₂, min(4, τ))` and
+    /// `(bottom, τ)`, 0 above, `τ` below. `τ = −ln T` (T at least 10⁻⁷: a half float's range).
+    /// WGSL twin: `column_optical_depth`.
+    pub fn column_optical_depth(&self, texel: [f64; 4], altitude_m: f64) -> f64 {
+        let total = -texel[0].clamp(1e-7, 1.0).ln();
+        let knots = [
+            (texel[1], 0.0),
+            (texel[2], SHADOW_KNOT_DEPTHS[0].min(total)),
+            (texel[3], SHADOW_KNOT_DEPTHS[1].min(total)),
+            (self.cloud_range_m[0], total),
+        ];
+        if altitude_m.is_nan() || altitude_m >= knots[0].0 {
             return 0.0;
         }
         for pair in knots.windows(2) {
@@ -88,7 +92,7 @@ impl ShadowMapFrame {
                 return ta + f * (tb - ta);
             }
         }
-        texel[3]
+        total
     }
 
     /// A point (relative to the camera) on the sun line of texel `(i, j)`.
@@ -111,46 +115,24 @@ impl ShadowMapFrame {
     }
 }
 
-/// Optical depth of every active layer along the sun line through `position_m` (relative to the
-/// camera of `settings`), from where the line meets the ground on the sun's side up to space.
+/// Calls `visit(altitude, [altitudes of the sample's lower and upper ends], optical depth)` for
+/// every sample of the sun line through `position_m` (relative to the camera of `settings`), from where the line
+/// meets the ground on the sun's side up to space, in that order (rising altitude).
 ///
 /// The march visits only the intervals where the line crosses a layer shell
 /// ([`next_cloud_interval`]), with `steps` evenly spaced midpoint samples per interval (at least
 /// 1, at most [`MAX_SHADOW_STEPS`]) at full detail, reading noise mips for `footprint_m`. Uses
 /// [`MarchSettings::sun_direction`]; the caller decides what a sun below the horizon means (the
-/// GPU pass does not run then). WGSL twin: `shadow_optical_depth`.
-pub fn shadow_optical_depth(
+/// GPU pass does not run then). A line that misses the ground starts at its lowest point.
+fn visit_sun_line(
     textures: &CloudTextures,
     settings: &MarchSettings,
     layers: &[MarchLayer],
     position_m: [f64; 3],
     steps: u32,
     footprint_m: f64,
-) -> f64 {
-    let above = [f64::INFINITY; 2];
-    shadow_optical_depths(
-        textures,
-        settings,
-        layers,
-        position_m,
-        steps,
-        footprint_m,
-        above,
-    )[2]
-}
-
-/// [`shadow_optical_depth`] split by altitude: `[τ above levels_m[0], τ above levels_m[1],
-/// τ]` along the sun line through `position_m`, where "above `z`" counts the samples whose
-/// altitude is at least `z`. WGSL twin: `shadow_optical_depths`.
-pub fn shadow_optical_depths(
-    textures: &CloudTextures,
-    settings: &MarchSettings,
-    layers: &[MarchLayer],
-    position_m: [f64; 3],
-    steps: u32,
-    footprint_m: f64,
-    levels_m: [f64; 2],
-) -> [f64; 3] {
+    mut visit: impl FnMut(f64, [f64; 2], f64),
+) {
     let radius = settings.planet_radius_m;
     let sun = settings.sun_direction;
     let altitude = altitude_of(settings, position_m);
@@ -159,7 +141,7 @@ pub fn shadow_optical_depths(
         / (radius + altitude);
     let mu = mu.clamp(-1.0, 1.0);
     // Light travels along −sun, so it reaches the far root (largest distance toward the sun)
-    // first. A line that misses the ground starts at its lowest point.
+    // first.
     let ground = intersect_altitude_sphere(altitude, mu, radius, 0.0);
     let start = if ground == [NO_HIT, NO_HIT] {
         -(radius + altitude) * mu
@@ -173,7 +155,6 @@ pub fn shadow_optical_depths(
 
     let axes = horizontal_axes(settings.camera_up);
     let n = steps.clamp(1, MAX_SHADOW_STEPS);
-    let mut optical_depth = [0.0; 3];
     let mut t = 0.0;
     for _ in 0..=2 * layers.len() {
         let [a, b] =
@@ -195,17 +176,124 @@ pub fn shadow_optical_depths(
                 footprint_m,
                 true,
             );
-            let x = extinction * dt;
-            for (depth, level) in optical_depth.iter_mut().zip(levels_m) {
-                if point_altitude >= level {
-                    *depth += x;
-                }
-            }
-            optical_depth[2] += x;
+            let end = |u: f64| altitude_along_ray(origin_altitude, origin_mu, s + u * dt, radius);
+            visit(point_altitude, [end(-0.5), end(0.5)], extinction * dt);
         }
         t = b;
     }
-    optical_depth
+}
+
+/// Optical depth of every active layer along the sun line through `position_m` (relative to the
+/// camera of `settings`), from where the line meets the ground on the sun's side up to space
+/// (the samples of `visit_sun_line`). WGSL twin: `shadow_optical_depth`.
+pub fn shadow_optical_depth(
+    textures: &CloudTextures,
+    settings: &MarchSettings,
+    layers: &[MarchLayer],
+    position_m: [f64; 3],
+    steps: u32,
+    footprint_m: f64,
+) -> f64 {
+    let mut total = 0.0;
+    visit_sun_line(
+        textures,
+        settings,
+        layers,
+        position_m,
+        steps,
+        footprint_m,
+        |_, _, x| total += x,
+    );
+    total
+}
+
+/// Optical depths from the top of the clouds at which a shadow-map texel records the altitude of
+/// its sun line ([`shadow_column`]). WGSL twin: `SHADOW_KNOT_DEPTHS`.
+pub const SHADOW_KNOT_DEPTHS: [f64; 2] = [1.0, 4.0];
+
+/// How the optical depth toward the sun grows down one sun line: a small "deep shadow map"
+/// (Lokovic & Veach 2000) of four knots, what a shadow-map texel stores.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShadowColumn {
+    /// Optical depth of the whole line.
+    pub optical_depth: f64,
+    /// Altitude of the upper end of the highest cloudy sample, metres (`bottom_m` when the line
+    /// is clear).
+    pub top_m: f64,
+    /// Altitudes, metres, where the optical depth from the top reaches each of
+    /// [`SHADOW_KNOT_DEPTHS`], found by linear interpolation between samples; the lower end of
+    /// the lowest cloudy sample where the line's whole depth is less.
+    pub knots_m: [f64; 2],
+}
+
+/// The [`ShadowColumn`] of the sun line through `position_m`: two passes over the samples of
+/// [`shadow_optical_depth`], the first for the whole depth and the cloud's top and bottom, the
+/// second for where the depth from the top crosses each knot. `bottom_m` is the altitude a clear
+/// line reports. WGSL twin: `shadow_column`.
+pub fn shadow_column(
+    textures: &CloudTextures,
+    settings: &MarchSettings,
+    layers: &[MarchLayer],
+    position_m: [f64; 3],
+    steps: u32,
+    footprint_m: f64,
+    bottom_m: f64,
+) -> ShadowColumn {
+    let (mut total, mut top, mut lowest) = (0.0, f64::NEG_INFINITY, f64::INFINITY);
+    let walk = |visit: &mut dyn FnMut(f64, [f64; 2], f64)| {
+        visit_sun_line(
+            textures,
+            settings,
+            layers,
+            position_m,
+            steps,
+            footprint_m,
+            visit,
+        );
+    };
+    walk(&mut |_, [lower, upper], x| {
+        if x > 0.0 {
+            total += x;
+            top = top.max(upper);
+            lowest = lowest.min(lower);
+        }
+    });
+    if !is_positive(total) {
+        return ShadowColumn {
+            optical_depth: 0.0,
+            top_m: bottom_m,
+            knots_m: [bottom_m; 2],
+        };
+    }
+    // Depth from the top at each sample's altitude (half the sample counted), rising from
+    // (lowest, total) to (top, 0); a knot lies between the last point deeper than its depth and
+    // the first shallower one.
+    let mut knots = [lowest; 2];
+    let mut below = 0.0;
+    let mut previous = (lowest, total);
+    let mut cross = |previous: (f64, f64), altitude: f64, depth: f64| {
+        for (knot, &level) in knots.iter_mut().zip(&SHADOW_KNOT_DEPTHS) {
+            if previous.1 >= level && depth < level {
+                let f = (previous.1 - level) / (previous.1 - depth);
+                *knot = previous.0 + f * (altitude - previous.0);
+            }
+        }
+    };
+    walk(&mut |altitude, _, x| {
+        if !is_positive(x) {
+            return;
+        }
+        let depth = total - below - 0.5 * x;
+        below += x;
+        cross(previous, altitude, depth);
+        previous = (altitude, depth);
+    });
+    cross(previous, top, 0.0);
+    ShadowColumn {
+        optical_depth: total,
+        top_m: top,
+        knots_m: knots,
+    }
 }
 
 /// Fraction of direct sunlight that reaches the ground on the sun line through `position_m`,
@@ -222,11 +310,10 @@ pub fn shadow_transmittance(
 }
 
 /// The whole map as the GPU pass writes it (before rounding to half floats): `frame.size²`
-/// texels, row `j` (from the top) after row `j − 1`, each row `i = 0..size`. A texel is
-/// `[e^(−τ), τ above z₁, τ above z₂, τ]` on its sun line, with `τ` the optical depth of the whole
-/// column ([`shadow_optical_depths`]) and `z₁`, `z₂` the [`ShadowMapFrame::levels_m`]: the
-/// first channel is the ground's transmittance, which Bevy's light texture reads; the others
-/// let the march read the sun's optical depth at any altitude ([`ShadowMapFrame::level_optical_depth`]).
+/// texels, row `j` (from the top) after row `j − 1`, each row `i = 0..size`. A texel is its sun
+/// line's [`ShadowColumn`] as `[e^(−τ), top, knot₁, knot₂]`: the first channel is the ground's
+/// transmittance, which Bevy's light texture reads; the others let the march read the sun's
+/// optical depth at any altitude ([`ShadowMapFrame::column_optical_depth`]).
 pub fn cloud_shadow_map_texels(
     textures: &CloudTextures,
     settings: &MarchSettings,
@@ -238,16 +325,21 @@ pub fn cloud_shadow_map_texels(
     (0..frame.size)
         .flat_map(|j| (0..frame.size).map(move |i| (i, j)))
         .map(|(i, j)| {
-            let [g, b, a] = shadow_optical_depths(
+            let column = shadow_column(
                 textures,
                 settings,
                 layers,
                 frame.texel_position(i, j),
                 steps,
                 footprint,
-                frame.levels_m(),
+                frame.cloud_range_m[0],
             );
-            [(-a).exp(), g, b, a]
+            [
+                (-column.optical_depth).exp(),
+                column.top_m,
+                column.knots_m[0],
+                column.knots_m[1],
+            ]
         })
         .collect()
 }
@@ -272,7 +364,7 @@ pub fn cloud_shadow_map(
 pub struct ShadowMapImage {
     /// Where the map lies, relative to the camera of the view that reads it.
     pub frame: ShadowMapFrame,
-    /// `frame.size²` texels, `[T, τ(z₁), τ(z₂), τ]`.
+    /// `frame.size²` texels, `[T, top, knot₁, knot₂]`.
     pub texels: Vec<[f64; 4]>,
 }
 
@@ -286,27 +378,37 @@ impl ShadowMapImage {
         [0.5 * (1.0 - x), 0.5 * (1.0 + y)]
     }
 
-    /// The texel on the sun line through `position_m` (relative to the camera), filtered
-    /// bilinearly between texel centres as a repeating linear sampler does; `None` outside the
-    /// map. WGSL twin: `sample_shadow_map`.
-    pub fn sample(&self, position_m: [f64; 3]) -> Option<[f64; 4]> {
-        let [u, v] = Self::uv(&self.frame, position_m);
-        if !(0.0..=1.0).contains(&u) || !(0.0..=1.0).contains(&v) {
-            return None;
-        }
+    /// The four texels around `uv` and their bilinear weights (texel centres at `(i + ½)/n`,
+    /// wrapping like a repeating sampler).
+    fn taps(&self, [u, v]: [f64; 2]) -> [(usize, f64); 4] {
         let n = self.frame.size.max(1);
         let nf = f64::from(n);
         let (x, y) = (u * nf - 0.5, v * nf - 0.5);
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
         let wrap = |i: f64| (i as i64).rem_euclid(i64::from(n)) as usize;
-        let texel = |i: f64, j: f64| self.texels[wrap(j) * n as usize + wrap(i)];
-        let (a, b) = (texel(x0, y0), texel(x0 + 1.0, y0));
-        let (c, d) = (texel(x0, y0 + 1.0), texel(x0 + 1.0, y0 + 1.0));
-        Some(std::array::from_fn(|k| {
-            let top = a[k] * (1.0 - fx) + b[k] * fx;
-            let bottom = c[k] * (1.0 - fx) + d[k] * fx;
-            top * (1.0 - fy) + bottom * fy
+        let index = |i: f64, j: f64| wrap(j) * n as usize + wrap(i);
+        [
+            (index(x0, y0), (1.0 - fx) * (1.0 - fy)),
+            (index(x0 + 1.0, y0), fx * (1.0 - fy)),
+            (index(x0, y0 + 1.0), (1.0 - fx) * fy),
+            (index(x0 + 1.0, y0 + 1.0), fx * fy),
+        ]
+    }
+
+    /// The map's coordinates of the sun line through `position_m`, `None` outside the map.
+    fn covering_uv(&self, position_m: [f64; 3]) -> Option<[f64; 2]> {
+        let uv = Self::uv(&self.frame, position_m);
+        uv.iter().all(|c| (0.0..=1.0).contains(c)).then_some(uv)
+    }
+
+    /// The texel on the sun line through `position_m` (relative to the camera), filtered
+    /// bilinearly between texel centres as a repeating linear sampler does; `None` outside the
+    /// map. WGSL twin: `sample_shadow_map`.
+    pub fn sample(&self, position_m: [f64; 3]) -> Option<[f64; 4]> {
+        let uv = self.covering_uv(position_m)?;
+        Some(self.taps(uv).iter().fold([0.0; 4], |sum, &(index, w)| {
+            std::array::from_fn(|k| sum[k] + w * self.texels[index][k])
         }))
     }
 
@@ -316,11 +418,17 @@ impl ShadowMapImage {
         self.sample(position_m).map_or(1.0, |texel| texel[0])
     }
 
-    /// The optical depth toward the sun from `position_m` at `altitude_m`
-    /// ([`ShadowMapFrame::level_optical_depth`] of the filtered texel); `None` outside the map.
+    /// The optical depth toward the sun from `position_m` at `altitude_m`: each of the four
+    /// nearest texels decoded ([`ShadowMapFrame::column_optical_depth`]), then blended
+    /// bilinearly (blending the knots first would mix a cloud's top with a clear neighbour's);
+    /// `None` outside the map. WGSL twin: `map_sun_optical_depth`.
     pub fn sun_optical_depth(&self, position_m: [f64; 3], altitude_m: f64) -> Option<f64> {
-        self.sample(position_m)
-            .map(|texel| self.frame.level_optical_depth(texel, altitude_m))
+        let uv = self.covering_uv(position_m)?;
+        Some(self.taps(uv).iter().fold(0.0, |sum, &(index, w)| {
+            sum + w * self
+                .frame
+                .column_optical_depth(self.texels[index], altitude_m)
+        }))
     }
 }
 
@@ -576,7 +684,6 @@ mod tests {
             size: 8,
             cloud_range_m: [1000.0, 2000.0],
         };
-        // 12 steps per interval: the levels at a third and two thirds fall on step boundaries.
         let map = ShadowMapImage {
             frame,
             texels: cloud_shadow_map_texels(&textures, &settings, &layers, &frame, 12),
@@ -593,7 +700,10 @@ mod tests {
         }
         // The ground channel is the whole column.
         let ground = map.ground_transmittance([0.0, 0.0, 0.0]);
-        assert!((ground - (-sigma * 1000.0 / mu).exp()).abs() < 1e-3, "{ground}");
+        assert!(
+            (ground - (-sigma * 1000.0 / mu).exp()).abs() < 1e-3,
+            "{ground}"
+        );
         assert!(map.sample([5000.0, 0.0, 0.0]).is_none(), "outside the map");
     }
 
@@ -606,16 +716,20 @@ mod tests {
             size: 4,
             cloud_range_m: [1000.0, 4000.0],
         };
-        assert_eq!(frame.levels_m(), [3000.0, 2000.0]);
-        // The levels' optical depths, interpolated in altitude.
-        let texel = [(-9.0f64).exp(), 2.0, 5.0, 9.0];
-        assert_eq!(frame.level_optical_depth(texel, 5000.0), 0.0);
-        assert_eq!(frame.level_optical_depth(texel, 4000.0), 0.0);
-        assert!((frame.level_optical_depth(texel, 3500.0) - 1.0).abs() < 1e-12);
-        assert!((frame.level_optical_depth(texel, 2500.0) - 3.5).abs() < 1e-12);
-        assert!((frame.level_optical_depth(texel, 1000.0) - 9.0).abs() < 1e-12);
-        assert_eq!(frame.level_optical_depth(texel, 10.0), 9.0);
-        assert_eq!(frame.level_optical_depth(texel, f64::NAN), 0.0);
+        // The knots: τ 0 at the top (4000 m), 1 at 3500 m, 4 at 2000 m, τ = 9 at the bottom.
+        let texel = [(-9.0f64).exp(), 4000.0, 3500.0, 2000.0];
+        let depth = |altitude: f64| frame.column_optical_depth(texel, altitude);
+        assert_eq!(depth(5000.0), 0.0);
+        assert_eq!(depth(4000.0), 0.0);
+        assert!((depth(3750.0) - 0.5).abs() < 1e-12);
+        assert!((depth(2750.0) - 2.5).abs() < 1e-12);
+        assert!((depth(1500.0) - 6.5).abs() < 1e-9);
+        assert!((depth(10.0) - 9.0).abs() < 1e-9);
+        assert_eq!(depth(f64::NAN), 0.0);
+        // A thin column (τ 0.5) saturates at its own depth.
+        let thin = [(-0.5f64).exp(), 3000.0, 2500.0, 2500.0];
+        assert!((frame.column_optical_depth(thin, 2000.0) - 0.5).abs() < 1e-12);
+        assert!((frame.column_optical_depth(thin, 2750.0) - 0.25).abs() < 1e-12);
         // Texel (0, 0) is at u = v = 1/8: local x = 0.75, y = −0.75.
         let p = frame.texel_position(0, 0);
         assert_eq!(p, [10.0 + 75.0, 0.0, -75.0]);

@@ -89,12 +89,14 @@ pub struct VolumetricClouds {
     /// haze sample, so rays of light fall through the gaps in the clouds. Default true (`LOW`
     /// false: the haze uses the clouds' mean shade instead).
     pub light_shafts: bool,
-    /// From this distance along the view ray on, metres, cloud samples take the sun's optical
-    /// depth from the cloud shadow map (where it covers them: [`shadow::CloudShadows`] extent
-    /// around the camera) instead of a light march: one texture read instead of
-    /// [`VolumetricClouds::light_steps`] density samples, at the map's resolution. Without a map
-    /// (shadows off, night) the light march runs everywhere. Default 5 000 m (`LOW` 2 500,
-    /// `HIGH` 10 000, `ULTRA` infinity: never).
+    /// From this distance along the view ray on, metres, cloud samples light-march only the first
+    /// four shadow-map texels toward the sun, in at most two steps, and read the rest of the way
+    /// from the cloud shadow map ([`shadow::CloudShadows`]; where the map covers them). That
+    /// is two density samples instead of [`VolumetricClouds::light_steps`]; the map's texels blur
+    /// the clouds' edges, so it costs accuracy (noon cumulus: 10 % relative error against a
+    /// converged light march from 5 km on, against 7 % for `MEDIUM`'s own light march).
+    /// Without a map (shadows off, night) the light march runs everywhere. Default 5 000 m
+    /// (`LOW` 2 500, `HIGH` 10 000, `ULTRA` infinity: never).
     pub sun_from_shadow_map_m: f32,
 }
 

@@ -57,7 +57,7 @@
 //         shadow_map_centre_m: Vec4,   // offset 160, xyz relative to the camera
 //         shadow_map_axis_x: Vec4,     // offset 176, axis / |axis|^2
 //         shadow_map_axis_y: Vec4,     // offset 192
-//         shadow_map_levels_m: Vec4,   // offset 208, (bottom, top, level 1, level 2)
+//         shadow_map_range_m: Vec4,    // offset 208, (bottom, top, texel side, 0)
 //     }
 struct CloudUniforms {
     // Radius of the ground sphere, m.
@@ -110,9 +110,9 @@ struct CloudUniforms {
     shadow_map_centre_m: vec4<f32>,
     shadow_map_axis_x: vec4<f32>,
     shadow_map_axis_y: vec4<f32>,
-    // (bottom, top, level 1, level 2) altitudes of the map's levels, m
-    // (Rust: `ShadowMapFrame::cloud_range_m`, `levels_m`).
-    shadow_map_levels_m: vec4<f32>,
+    // xy: (bottom, top) of the layers the map holds, m (Rust: `ShadowMapFrame::cloud_range_m`);
+    // z: the side of a texel, m (`ShadowMapFrame::texel_m`).
+    shadow_map_range_m: vec4<f32>,
 }
 
 // One cloud layer, 176 bytes (an array stride of 176 in the storage buffer). Mirror in Rust
@@ -600,19 +600,27 @@ fn light_march_distance(altitude_m: f32, mu_sun: f32) -> f32 {
     return distance;
 }
 
+// Local up at the point is (A up + p) / (R + alt); only its dot with the sun is needed.
+// Rust: `point_mu_sun`.
+fn point_mu_sun(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f32) -> f32 {
+    let radius = clouds.planet_radius_m;
+    let sun = clouds.sun_direction.xyz;
+    return clamp(((radius + h) * dot(sun, up) + dot(sun, position_m)) / (radius + altitude_m), -1.0, 1.0);
+}
+
 // Optical depth toward the sun from `position_m` (relative to the camera at altitude h with
 // vertical up) at `altitude_m`: light_steps steps with boundaries at D (k/n)^2, each sampled at
 // its midpoint; negative when the ground blocks the sun. Rust: `sun_optical_depth`.
-fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f32, footprint_m: f32) -> f32 {
+fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f32, footprint_m: f32, max_distance_m: f32, light_steps: u32) -> f32 {
     let radius = clouds.planet_radius_m;
     let sun = clouds.sun_direction.xyz;
-    // Local up at the point is (A up + p) / (R + alt); only its dot with the sun is needed.
-    let mu_sun = clamp(((radius + h) * dot(sun, up) + dot(sun, position_m)) / (radius + altitude_m), -1.0, 1.0);
-    let distance = light_march_distance(altitude_m, mu_sun);
-    if distance < 0.0 {
+    let mu_sun = point_mu_sun(h, up, position_m, altitude_m);
+    let full_distance = light_march_distance(altitude_m, mu_sun);
+    if full_distance < 0.0 {
         return -1.0;
     }
-    let steps = min(clouds.light_steps, MAX_LIGHT_STEPS);
+    let distance = min(full_distance, max_distance_m);
+    let steps = min(light_steps, MAX_LIGHT_STEPS);
     if steps == 0u || distance == 0.0 {
         return 0.0;
     }
@@ -749,13 +757,21 @@ fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32) -> bool {
     var sun = 0.0;
     if (*ray).sun_on {
         let position = (*ray).direction * t;
-        // Far samples read the sun's optical depth from the shadow map where it covers them.
+        // A far sample marches only the first texels toward the sun and reads the rest of the
+        // way from the shadow map, where the map covers it (Rust: `Ray::step`).
         var optical_depth = 0.0;
-        let uv = shadow_map_uv(position);
+        let near = SHADOW_MAP_NEAR_TEXELS * clouds.shadow_map_range_m.z;
+        let end = position + clouds.sun_direction.xyz * near;
+        let uv = shadow_map_uv(end);
         if t >= clouds.sun_from_shadow_map_m && shadow_map_covers(uv) {
-            optical_depth = map_sun_optical_depth(sample_shadow_map(uv), altitude);
+            let mu_sun = point_mu_sun((*ray).camera_altitude_m, (*ray).up, position, altitude);
+            let end_altitude = altitude_along_ray(altitude, mu_sun, near, clouds.planet_radius_m);
+            optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, near, min(clouds.light_steps, SHADOW_MAP_NEAR_STEPS));
+            if optical_depth >= 0.0 {
+                optical_depth += map_sun_optical_depth(uv, end_altitude);
+            }
         } else {
-            optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint);
+            optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, FAR_AWAY, clouds.light_steps);
         }
         if optical_depth >= 0.0 {
             sun = multiple_scattering(optical_depth, (*ray).cos_sun);
@@ -878,8 +894,11 @@ fn march_clouds(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter:
 // Cloud shadows (CPU twin: src/reference/shadow.rs)
 // ---------------------------------------------------------------------------------------------
 
-// Rust: the constant of the same name in reference/shadow.rs.
+// Rust: the constants of the same names in reference/shadow.rs.
 const MAX_SHADOW_STEPS: u32 = 64u;
+const SHADOW_KNOT_DEPTHS: array<f32, 2> = array<f32, 2>(1.0, 4.0);
+const SHADOW_MAP_NEAR_TEXELS: f32 = 4.0;
+const SHADOW_MAP_NEAR_STEPS: u32 = 2u;
 
 // Altitude above the ground of a point relative to the camera. Rust: `altitude_of`.
 fn altitude_of(position_m: vec3<f32>) -> f32 {
@@ -891,12 +910,15 @@ fn altitude_of(position_m: vec3<f32>) -> f32 {
     return altitude_along_ray(clouds.camera_altitude_m, mu, distance, clouds.planet_radius_m);
 }
 
-// Optical depth of every layer along the sun line through `position_m` (relative to the
-// camera), from where the line meets the ground on the sun's side (its lowest point if it misses
-// the ground) up to space: `steps` midpoint samples per layer interval, full detail, mips for
-// `footprint_m`. Returns (depth of the samples at or above levels_m.x, at or above levels_m.y,
-// all). Rust: `shadow_optical_depths` in reference/shadow.rs.
-fn shadow_optical_depths(position_m: vec3<f32>, steps: u32, footprint_m: f32, levels_m: vec2<f32>) -> vec3<f32> {
+// The sun line through a point: where it meets the ground on the sun's side (its lowest point if
+// it misses the ground), marched up from there. Rust: the set-up of `visit_sun_line`.
+struct SunLine {
+    origin: vec3<f32>,
+    origin_altitude: f32,
+    origin_mu: f32,
+}
+
+fn sun_line(position_m: vec3<f32>) -> SunLine {
     let radius = clouds.planet_radius_m;
     let sun = clouds.sun_direction.xyz;
     let up = clouds.camera_up.xyz;
@@ -912,32 +934,89 @@ fn shadow_optical_depths(position_m: vec3<f32>, steps: u32, footprint_m: f32, le
     if ground.x == NO_HIT && ground.y == NO_HIT {
         start = -(radius + altitude) * mu;
     }
-    let origin = position_m + sun * start;
     let origin_altitude = altitude_along_ray(altitude, mu, start, radius);
-    let origin_mu = clamp(((radius + altitude) * mu + start) / (radius + origin_altitude), -1.0, 1.0);
+    return SunLine(
+        position_m + sun * start,
+        origin_altitude,
+        clamp(((radius + altitude) * mu + start) / (radius + origin_altitude), -1.0, 1.0),
+    );
+}
 
-    let axes = horizontal_axes(up);
+// The knots of the optical depth down one sun line: vec4(e^-tau, top, altitude where the depth
+// from the top reaches SHADOW_KNOT_DEPTHS.x, .y); `bottom_m` for a clear line. Two passes over
+// `steps` midpoint samples per layer interval (full detail, mips for `footprint_m`): the whole
+// depth and the cloud's top and bottom, then the knots. Rust: `shadow_column` in
+// reference/shadow.rs (whose `shadow_optical_depth` is the first pass).
+fn shadow_column(position_m: vec3<f32>, steps: u32, footprint_m: f32, bottom_m: f32) -> vec4<f32> {
+    let line = sun_line(position_m);
+    let radius = clouds.planet_radius_m;
+    let sun = clouds.sun_direction.xyz;
+    let axes = horizontal_axes(clouds.camera_up.xyz);
     let n = clamp(steps, 1u, MAX_SHADOW_STEPS);
     let count = cloud_layer_count();
-    var optical_depth = vec3<f32>(0.0);
-    var t = 0.0;
-    for (var i = 0u; i <= 2u * count; i++) {
-        let interval = next_cloud_interval(origin_altitude, origin_mu, t, FAR_AWAY);
-        if !(interval.y > interval.x) || !(interval.y < FAR_AWAY) {
-            break;
+    var total = 0.0;
+    var top = -FAR_AWAY;
+    var lowest = FAR_AWAY;
+    var below = 0.0;
+    var knots = vec2<f32>(0.0);
+    var previous_altitude = 0.0;
+    var previous_depth = 0.0;
+    for (var pass_index = 0u; pass_index < 2u; pass_index++) {
+        if pass_index == 1u {
+            if !(total > 0.0) {
+                return vec4<f32>(1.0, bottom_m, bottom_m, bottom_m);
+            }
+            // The depth from the top rises from (lowest, total) to (top, 0).
+            knots = vec2<f32>(lowest);
+            previous_altitude = lowest;
+            previous_depth = total;
         }
-        let dt = (interval.y - interval.x) / f32(n);
-        for (var k = 0u; k < n; k++) {
-            let s = interval.x + (f32(k) + 0.5) * dt;
-            let point = origin + sun * s;
-            let point_altitude = altitude_along_ray(origin_altitude, origin_mu, s, radius);
-            let horizontal = vec2<f32>(dot(point, axes.x), dot(point, axes.z));
-            let x = total_extinction(horizontal, point_altitude, footprint_m, true) * dt;
-            optical_depth += x * vec3<f32>(select(0.0, 1.0, point_altitude >= levels_m.x), select(0.0, 1.0, point_altitude >= levels_m.y), 1.0);
+        var t = 0.0;
+        for (var i = 0u; i <= 2u * count; i++) {
+            let interval = next_cloud_interval(line.origin_altitude, line.origin_mu, t, FAR_AWAY);
+            if !(interval.y > interval.x) || !(interval.y < FAR_AWAY) {
+                break;
+            }
+            let dt = (interval.y - interval.x) / f32(n);
+            for (var k = 0u; k < n; k++) {
+                let s = interval.x + (f32(k) + 0.5) * dt;
+                let point = line.origin + sun * s;
+                let altitude = altitude_along_ray(line.origin_altitude, line.origin_mu, s, radius);
+                let horizontal = vec2<f32>(dot(point, axes.x), dot(point, axes.z));
+                let x = total_extinction(horizontal, altitude, footprint_m, true) * dt;
+                if !(x > 0.0) {
+                    continue;
+                }
+                if pass_index == 0u {
+                    total += x;
+                    top = max(top, altitude_along_ray(line.origin_altitude, line.origin_mu, s + 0.5 * dt, radius));
+                    lowest = min(lowest, altitude_along_ray(line.origin_altitude, line.origin_mu, s - 0.5 * dt, radius));
+                    continue;
+                }
+                let depth = total - below - 0.5 * x;
+                below += x;
+                knots = cross_knots(knots, previous_altitude, previous_depth, altitude, depth);
+                previous_altitude = altitude;
+                previous_depth = depth;
+            }
+            t = interval.y;
         }
-        t = interval.y;
     }
-    return optical_depth;
+    knots = cross_knots(knots, previous_altitude, previous_depth, top, 0.0);
+    return vec4<f32>(exp(-total), top, knots.x, knots.y);
+}
+
+// The knots that lie between the points (altitude a, depth da) and (b, db) of a rising sun line.
+// Rust: the `cross` closure of `shadow_column`.
+fn cross_knots(knots: vec2<f32>, a: f32, da: f32, b: f32, db: f32) -> vec2<f32> {
+    var result = knots;
+    for (var j = 0u; j < 2u; j++) {
+        let level = SHADOW_KNOT_DEPTHS[j];
+        if da >= level && db < level {
+            result[j] = a + (da - level) / (da - db) * (b - a);
+        }
+    }
+    return result;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -961,16 +1040,15 @@ fn sample_shadow_map(uv: vec2<f32>) -> vec4<f32> {
 }
 
 // Optical depth toward the sun from the point at `altitude_m` on a sun line whose texel is
-// `texel`. Rust: `ShadowMapFrame::level_optical_depth`.
-fn map_sun_optical_depth(texel: vec4<f32>, altitude_m: f32) -> f32 {
-    let levels = clouds.shadow_map_levels_m;
-    let bottom = levels.x;
-    let top = levels.y;
-    if !(altitude_m < top) {
+// `texel` (e^-tau, top, knot 1, knot 2): linear in altitude through (top, 0), (knot 1, min(1, tau)),
+// (knot 2, min(4, tau)), (bottom, tau). Rust: `ShadowMapFrame::column_optical_depth`.
+fn column_optical_depth(texel: vec4<f32>, altitude_m: f32) -> f32 {
+    let total = -log(clamp(texel.x, 1e-7, 1.0));
+    let z = vec4<f32>(texel.y, texel.z, texel.w, clouds.shadow_map_range_m.x);
+    let tau = vec4<f32>(0.0, min(SHADOW_KNOT_DEPTHS[0], total), min(SHADOW_KNOT_DEPTHS[1], total), total);
+    if !(altitude_m < z.x) {
         return 0.0;
     }
-    let z = vec4<f32>(top, levels.z, levels.w, bottom);
-    let tau = vec4<f32>(0.0, texel.y, texel.z, texel.w);
     for (var i = 0u; i < 3u; i++) {
         if altitude_m >= z[i + 1u] {
             var f = 1.0;
@@ -980,5 +1058,24 @@ fn map_sun_optical_depth(texel: vec4<f32>, altitude_m: f32) -> f32 {
             return tau[i] + f * (tau[i + 1u] - tau[i]);
         }
     }
-    return texel.w;
+    return total;
+}
+
+// The sun's optical depth at `altitude_m` on the sun line at map coordinates `uv`: the four
+// nearest texels decoded, then blended bilinearly (wrapping like the CPU twin).
+// Rust: `ShadowMapImage::sun_optical_depth`.
+fn map_sun_optical_depth(uv: vec2<f32>, altitude_m: f32) -> f32 {
+    let size = vec2<i32>(textureDimensions(cloud_shadow_map));
+    let p = uv * vec2<f32>(size) - 0.5;
+    let base = floor(p);
+    let f = p - base;
+    let i0 = vec2<i32>(base);
+    var sum = 0.0;
+    for (var k = 0u; k < 4u; k++) {
+        let offset = vec2<i32>(i32(k & 1u), i32(k >> 1u));
+        let texel = ((i0 + offset) % size + size) % size;
+        let w = select(1.0 - f.x, f.x, offset.x == 1) * select(1.0 - f.y, f.y, offset.y == 1);
+        sum += w * column_optical_depth(textureLoad(cloud_shadow_map, texel, 0), altitude_m);
+    }
+    return sum;
 }

@@ -468,7 +468,7 @@ pub struct GpuCloudUniforms {
     shadow_map_centre_m: Vec4,
     shadow_map_axis_x: Vec4,
     shadow_map_axis_y: Vec4,
-    shadow_map_levels_m: Vec4,
+    shadow_map_range_m: Vec4,
 }
 
 /// f32 has no infinity the shader can compare safely: "never" is this (WGSL: `FAR_AWAY`).
@@ -528,10 +528,9 @@ impl GpuCloudUniforms {
             shadow_map_centre_m: map.map_or(Vec4::ZERO, |m| vec4(m.centre_m)),
             shadow_map_axis_x: map.map_or(Vec4::ZERO, |m| inverse_axis(m.axis_x_m)),
             shadow_map_axis_y: map.map_or(Vec4::ZERO, |m| inverse_axis(m.axis_y_m)),
-            shadow_map_levels_m: map.map_or(Vec4::ZERO, |m| {
+            shadow_map_range_m: map.map_or(Vec4::ZERO, |m| {
                 let [bottom, top] = m.cloud_range_m;
-                let [z1, z2] = m.levels_m();
-                Vec4::new(bottom as f32, top as f32, z1 as f32, z2 as f32)
+                Vec4::new(bottom as f32, top as f32, m.texel_m() as f32, 0.0)
             }),
         }
     }

@@ -132,8 +132,8 @@ impl CloudShadows {
 
 /// The shadow map's image (main world), made by the plugin and given to the sun light as its
 /// `DirectionalLightTexture`. `Rgba16Float`: red the transmittance to the ground (what Bevy's
-/// light texture reads), green, blue and alpha the optical depth toward the sun from two levels
-/// inside the layers and from their bottom
+/// light texture reads), green, blue and alpha where down the sun line the cloud starts and its
+/// optical depth reaches 1 and 4
 /// ([`cloud_shadow_map_texels`](crate::reference::shadow::cloud_shadow_map_texels)).
 #[derive(Resource, Clone, Debug)]
 pub struct CloudShadowMap {
@@ -471,7 +471,7 @@ struct GpuShadowUniforms {
     steps: u32,
     footprint_m: f32,
     pad: u32,
-    levels_m: Vec4,
+    cloud_range_m: Vec4,
 }
 
 impl GpuShadowUniforms {
@@ -485,10 +485,12 @@ impl GpuShadowUniforms {
             steps,
             footprint_m: frame.texel_m() as f32,
             pad: 0,
-            levels_m: {
-                let [z1, z2] = frame.levels_m();
-                Vec4::new(z1 as f32, z2 as f32, 0.0, 0.0)
-            },
+            cloud_range_m: Vec4::new(
+                frame.cloud_range_m[0] as f32,
+                frame.cloud_range_m[1] as f32,
+                0.0,
+                0.0,
+            ),
         }
     }
 }
@@ -596,8 +598,11 @@ fn prepare_cloud_shadow(
                 return;
             }
             let gpu_layers: Vec<GpuCloudLayer> = layers.iter().map(GpuCloudLayer::from).collect();
-            let mut cloud_uniforms =
-                UniformBuffer::from(GpuCloudUniforms::new(settings, gpu_layers.len() as u32, None));
+            let mut cloud_uniforms = UniformBuffer::from(GpuCloudUniforms::new(
+                settings,
+                gpu_layers.len() as u32,
+                None,
+            ));
             cloud_uniforms.write_buffer(&device, &queue);
             let mut layer_buffer = StorageBuffer::from(gpu_layers);
             layer_buffer.write_buffer(&device, &queue);

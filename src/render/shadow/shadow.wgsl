@@ -1,10 +1,10 @@
 // Cloud shadow map: one texel per line along the sun, holding the fraction of direct sunlight
-// that reaches the ground on that line through every cloud layer (red), and the optical depth
-// toward the sun from two levels inside the layers and from their bottom (green, blue, alpha). The texel layout is the one
+// that reaches the ground on that line through every cloud layer (red), and where down the line
+// the cloud starts and its optical depth reaches 1 and 4 (green, blue, alpha). The texel layout is the one
 // Bevy's `DirectionalLightTexture` projects with, so the map lights every `StandardMaterial`
 // directly. Rust side: `src/render/shadow/mod.rs`; CPU twin: `src/reference/shadow.rs`.
 
-#import bevy_cloudscape::clouds::shadow_optical_depths
+#import bevy_cloudscape::clouds::shadow_column
 
 // 80 bytes. Mirror in Rust: `GpuShadowUniforms`.
 struct ShadowUniforms {
@@ -20,8 +20,8 @@ struct ShadowUniforms {
     // Texel side, m: picks the noise mips.
     footprint_m: f32,
     pad: u32,
-    // xy: the altitudes of the two inner levels, m (Rust: `ShadowMapFrame::levels_m`).
-    levels_m: vec4<f32>,
+    // xy: (bottom, top) of the layers, m (Rust: `ShadowMapFrame::cloud_range_m`).
+    cloud_range_m: vec4<f32>,
 }
 
 @group(0) @binding(0) var shadow_map: texture_storage_2d<rgba16float, write>;
@@ -37,8 +37,7 @@ fn generate_shadow(@builtin(global_invocation_id) id: vec3<u32>) {
     let uv = (vec2<f32>(id.xy) + 0.5) / f32(shadow.size);
     let position = shadow.centre_m.xyz + (1.0 - 2.0 * uv.x) * shadow.axis_x_m.xyz
         + (2.0 * uv.y - 1.0) * shadow.axis_y_m.xyz;
-    // (T to the ground, optical depth above level 1, above level 2, whole column).
-    // Rust: `cloud_shadow_map_texels`.
-    let depth = shadow_optical_depths(position, shadow.steps, shadow.footprint_m, shadow.levels_m.xy);
-    textureStore(shadow_map, vec2<i32>(id.xy), vec4<f32>(exp(-depth.z), depth.x, depth.y, depth.z));
+    // (T to the ground, the cloud's top, the knots). Rust: `cloud_shadow_map_texels`.
+    let column = shadow_column(position, shadow.steps, shadow.footprint_m, shadow.cloud_range_m.x);
+    textureStore(shadow_map, vec2<i32>(id.xy), column);
 }
