@@ -20,10 +20,12 @@
 //! - the sun, dimmed by the clouds above it: with light shafts on, the fraction read from the
 //!   cloud shadow map at the sample (the transmittance along its sun line through every layer;
 //!   [`crate::reference::shadow`]), so shadowed air is dark and the air in a gap is bright: the
-//!   crepuscular rays. With shafts off, or with no shadow map, one number for the whole view,
-//!   [`mean_sun_transmittance`]: the clouds' average shade;
+//!   crepuscular rays. With shafts off, with no shadow map, and beyond the map's extent, one
+//!   number for the whole view, [`mean_sun_transmittance`]: the clouds' average shade;
 //! - the sky and the ground, isotropically: the mean of the clouds' top and bottom ambient
-//!   radiance (sky above, ground-reflected light below).
+//!   radiance (sky above, ground-reflected light below), times the fraction of diffuse light the
+//!   clouds let through ([`mean_diffuse_transmittance`]): under an overcast deck the haze sees
+//!   the deck, not the blue sky above it.
 //!
 //! # Integration
 //!
@@ -90,6 +92,9 @@ pub struct HazeSettings {
     /// The sun's transmittance through the clouds used without shafts or without a map, 0–1
     /// ([`mean_sun_transmittance`]). Default 1.
     pub sun_transmittance: f64,
+    /// The fraction of the sky's diffuse light that gets through the clouds to the haze, 0–1
+    /// ([`mean_diffuse_transmittance`]). Default 1.
+    pub ambient_transmittance: f64,
 }
 
 impl Default for HazeSettings {
@@ -102,6 +107,7 @@ impl Default for HazeSettings {
             steps: 16,
             shafts: true,
             sun_transmittance: 1.0,
+            ambient_transmittance: 1.0,
         }
     }
 }
@@ -139,6 +145,29 @@ pub fn mean_sun_transmittance(layers: &[super::render::MarchLayer], mu_sun: f64)
         .map(|layer| {
             let slant = layer.extinction * (layer.top_m - layer.base_m) / mu;
             1.0 - layer.coverage.clamp(0.0, 1.0) * (1.0 - (-slant).exp())
+        })
+        .product::<f64>()
+        .clamp(0.0, 1.0)
+}
+
+/// Asymmetry of cloud droplets' scattering for [`mean_diffuse_transmittance`] (about 0.85 for
+/// visible light).
+pub const CLOUD_ASYMMETRY: f64 = 0.85;
+
+/// The fraction of the sky's diffuse light that reaches the air under the clouds, 0–1: the
+/// product over `layers` of `1 − c + c T_d`, where `c` is the coverage and `T_d` the diffuse
+/// transmittance of a non-absorbing cloud of vertical optical thickness `τ = σ h`,
+/// `1 / (1 + ¾ (1 − g) τ)` (the two-stream result; Bohren 1987, "Multiple scattering of light
+/// and some of its observable consequences"), with `g` = [`CLOUD_ASYMMETRY`]. A thick deck still
+/// lets a quarter or so through, as overcast days show.
+pub fn mean_diffuse_transmittance(layers: &[super::render::MarchLayer]) -> f64 {
+    layers
+        .iter()
+        .filter(|layer| super::render::layer_is_active(layer))
+        .map(|layer| {
+            let tau = layer.extinction * (layer.top_m - layer.base_m);
+            let diffuse = 1.0 / (1.0 + 0.75 * (1.0 - CLOUD_ASYMMETRY) * tau);
+            1.0 - layer.coverage.clamp(0.0, 1.0) * (1.0 - diffuse)
         })
         .product::<f64>()
         .clamp(0.0, 1.0)
@@ -204,8 +233,9 @@ pub fn march_haze(
     }
     let cos_sun = dot(direction, settings.sun_direction).clamp(-1.0, 1.0);
     let phase = henyey_greenstein(cos_sun, haze.asymmetry);
-    let ambient: [f64; 3] =
-        std::array::from_fn(|c| 0.5 * (settings.ambient_top[c] + settings.ambient_bottom[c]));
+    let ambient: [f64; 3] = std::array::from_fn(|c| {
+        0.5 * (settings.ambient_top[c] + settings.ambient_bottom[c]) * haze.ambient_transmittance
+    });
     let shadow = shadow.filter(|_| haze.shafts);
     let steps = haze.steps.clamp(1, MAX_HAZE_STEPS);
     let n = f64::from(steps);
@@ -224,10 +254,10 @@ pub fn march_haze(
         let altitude = altitude_along_ray(camera_altitude_m, mu, t, radius);
         let sigma = haze.extinction_at(altitude);
         let x = sigma * dt;
-        let sun = match shadow {
-            Some(map) => map.ground_transmittance(scale(direction, t)),
-            None => haze.sun_transmittance,
-        };
+        // Beyond the map (and without one) the clouds' mean shade.
+        let sun = shadow
+            .and_then(|map| map.ground_transmittance(scale(direction, t)))
+            .unwrap_or(haze.sun_transmittance);
         let weight = (-total_depth).exp() * dt * mean_step_transmittance(x) * sigma * haze.albedo;
         let part = usize::from(t >= split_m);
         for (c, value) in radiance[part].iter_mut().enumerate() {
@@ -433,13 +463,9 @@ mod tests {
         let map = ShadowMapImage { frame, texels };
         // Texel u lies at centre + (1 − 2u) axis_x and axis_x points to −x, so u < 0.5 (the
         // shadowed half) is world −x.
-        assert_eq!(map.ground_transmittance([-10_000.0, 0.0, 0.0]), 0.0);
-        assert_eq!(map.ground_transmittance([10_000.0, 0.0, 0.0]), 1.0);
-        assert_eq!(
-            map.ground_transmittance([50_000.0, 0.0, 0.0]),
-            1.0,
-            "outside the map: no shadow"
-        );
+        assert_eq!(map.ground_transmittance([-10_000.0, 0.0, 0.0]), Some(0.0));
+        assert_eq!(map.ground_transmittance([10_000.0, 0.0, 0.0]), Some(1.0));
+        assert_eq!(map.ground_transmittance([50_000.0, 0.0, 0.0]), None);
         let haze = HazeSettings {
             extinction_per_m: 1e-4,
             ..HazeSettings::default()
@@ -517,6 +543,15 @@ mod tests {
         assert!((thin - (-0.1_f64).exp()).abs() < 1e-9, "{thin}");
         // A low sun crosses more cloud.
         assert!(mean_sun_transmittance(&[layer(1.0, 1e-4)], 0.2) < thin);
+        // Diffuse light gets through thick cloud far better than the direct beam.
+        assert_eq!(mean_diffuse_transmittance(&[]), 1.0);
+        let deck = mean_diffuse_transmittance(&[layer(1.0, 0.05)]);
+        assert!(
+            (deck - 1.0 / (1.0 + 0.75 * 0.15 * 50.0)).abs() < 1e-12,
+            "{deck}"
+        );
+        assert!(deck > 0.1 && overcast < 1e-6);
+        assert!(mean_diffuse_transmittance(&[layer(0.5, 0.05)]) > deck);
     }
 
     #[test]

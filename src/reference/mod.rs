@@ -13,7 +13,8 @@
 //!   [`render::transmittance_to_sun`]. GPU twin: `src/render/march/clouds.wgsl`.
 //! - [`shadow`]: the cloud shadow map — the transmittance of every layer along the sun line
 //!   through a ground point, and the texel layout of the map. GPU twin:
-//!   `src/render/shadow/shadow.wgsl` and `shadow_optical_depth` in `clouds.wgsl`.
+//!   `src/render/shadow/shadow.wgsl` and `shadow_column` in `clouds.wgsl`; and how the march
+//!   reads the map back (`ShadowMapImage`).
 //! - [`blue_noise`]: the tileable blue-noise map of the ray-start jitter. GPU twin:
 //!   `blue_noise_jitter` in `clouds.wgsl`, reading the same values from a texture.
 //! - [`haze`]: haze from the visibility, marched along the view ray with light shafts from the

@@ -185,7 +185,7 @@ fn visit_sun_line(
 
 /// Optical depth of every active layer along the sun line through `position_m` (relative to the
 /// camera of `settings`), from where the line meets the ground on the sun's side up to space
-/// (the samples of `visit_sun_line`). WGSL twin: `shadow_optical_depth`.
+/// (the samples of `visit_sun_line`). WGSL twin: the first pass of `shadow_column`.
 pub fn shadow_optical_depth(
     textures: &CloudTextures,
     settings: &MarchSettings,
@@ -413,9 +413,10 @@ impl ShadowMapImage {
     }
 
     /// The sun's transmittance through the clouds to the ground on the sun line through
-    /// `position_m`, 1 outside the map (the light shafts' read). WGSL twin: `sun_visibility`.
-    pub fn ground_transmittance(&self, position_m: [f64; 3]) -> f64 {
-        self.sample(position_m).map_or(1.0, |texel| texel[0])
+    /// `position_m` (the light shafts' read); `None` outside the map. WGSL twin: the map read
+    /// of `sun_visibility`.
+    pub fn ground_transmittance(&self, position_m: [f64; 3]) -> Option<f64> {
+        self.sample(position_m).map(|texel| texel[0])
     }
 
     /// The optical depth toward the sun from `position_m` at `altitude_m`: each of the four
@@ -699,7 +700,7 @@ mod tests {
             );
         }
         // The ground channel is the whole column.
-        let ground = map.ground_transmittance([0.0, 0.0, 0.0]);
+        let ground = map.ground_transmittance([0.0, 0.0, 0.0]).unwrap();
         assert!(
             (ground - (-sigma * 1000.0 / mu).exp()).abs() < 1e-3,
             "{ground}"

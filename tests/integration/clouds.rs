@@ -326,8 +326,27 @@ fn assert_physical(case: &str, radiance: &[[f32; 3]], transmittance: &[f32], tol
 fn hard_cases_stay_finite_and_physical() {
     let size = UVec2::new(24, 16);
     let mut rig = CloudRig::new(size, Msaa::Sample4, small_recipe());
+    // Every path on: haze with light shafts, and the cloud shadow map lighting every sample.
+    rig.app
+        .world()
+        .insert_resource(Haze::with_visibility(8_000.0));
+    rig.app.world().insert_resource(CloudShadows {
+        enabled: true,
+        resolution: 32,
+        extent_m: 20_000.0,
+        steps: 4,
+    });
     let cumulus = layer(CloudKind::Cumulus, 0.6);
     let (base, top) = (f64::from(cumulus.base_m), f64::from(cumulus.top_m));
+    // The shadow map's image appears a frame after the settings: let every case see it.
+    rig.set_scene(&Scene {
+        name: "warm-up",
+        camera: looking(Vec3::new(0.0, 2.0, 0.0), 20.0, 0.0),
+        sun_deg: (50.0, 30.0),
+        layers: vec![cumulus.clone()],
+        settings: VolumetricClouds::MEDIUM,
+    });
+    rig.app.run_frames(4);
     let cases: Vec<(&str, Vec3, f32, (f32, f32), f32)> = vec![
         // (case, camera position, pitch°, sun (elevation°, azimuth°), coverage)
         (
@@ -413,6 +432,7 @@ fn hard_cases_stay_finite_and_physical() {
             }],
             settings: VolumetricClouds {
                 jitter: false,
+                sun_from_shadow_map_m: 0.0,
                 ..VolumetricClouds::MEDIUM
             },
         };
@@ -693,7 +713,7 @@ fn haze_veils_distant_clouds_like_the_cpu_reference() {
     let (clear_l, _) = rig.render(3);
     rig.app
         .world()
-        .insert_resource(Haze::with_visibility(12_000.0));
+        .insert_resource(Haze::with_visibility(8_000.0));
     let (gpu_l, gpu_t) = rig.render(3);
     let (cpu_l, cpu_t) = rig.reference(&textures);
     save_strip(

@@ -43,6 +43,30 @@ fn read_shadow_texels(rig: &mut CloudRig) -> (u32, Vec<[f64; 4]>) {
     (map.resolution, texels)
 }
 
+/// The shadow map of the last frame as the CPU twin reads it: the texels read back, and the frame
+/// the render world placed it at, relative to the rig's camera.
+fn gpu_shadow_image(rig: &mut CloudRig) -> bevy_cloudscape::reference::shadow::ShadowMapImage {
+    let (size, texels) = read_shadow_texels(rig);
+    let frame = rig
+        .app
+        .render_world()
+        .get_resource::<bevy_cloudscape::render::haze::CloudShadowFrame>()
+        .expect("the shadow map was marched this frame")
+        .clone();
+    assert_eq!(frame.frame.size, size);
+    let camera_m = rig
+        .app
+        .world()
+        .get::<GlobalTransform>(rig.camera)
+        .unwrap()
+        .translation()
+        .as_dvec3();
+    bevy_cloudscape::reference::shadow::ShadowMapImage {
+        frame: frame.relative_to(camera_m),
+        texels,
+    }
+}
+
 /// The shadow map's ground transmittance as read back: `(size, T per texel)`.
 fn read_shadow_map(rig: &mut CloudRig) -> (u32, Vec<f64>) {
     let (size, texels) = read_shadow_texels(rig);
@@ -281,7 +305,6 @@ fn cloud_shadows_darken_only_the_direct_sun_on_lit_ground() {
 /// haze with the clouds' mean transmittance instead, so the map really reaches the haze.
 #[test]
 fn light_shafts_follow_the_cloud_shadow_map() {
-    use bevy_cloudscape::{reference::shadow::ShadowMapImage, render::haze::CloudShadowFrame};
     let size = UVec2::new(64, 36);
     let textures = CloudTextures::from_recipe(&small_recipe());
     let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
@@ -304,32 +327,15 @@ fn light_shafts_follow_the_cloud_shadow_map() {
     };
     rig.set_scene(&scene);
     let (gpu_l, _) = rig.render(4);
-    let (map_size, map) = read_shadow_texels(&mut rig);
-    let (darkest, brightest) = map
+    let image = gpu_shadow_image(&mut rig);
+    let (darkest, brightest) = image
+        .texels
         .iter()
         .fold((1.0f64, 0.0f64), |(lo, hi), t| (lo.min(t[0]), hi.max(t[0])));
     assert!(
         darkest < 0.3 && brightest > 0.95,
         "the map holds shadows and gaps"
     );
-    let frame = rig
-        .app
-        .render_world()
-        .get_resource::<CloudShadowFrame>()
-        .expect("the shadow map was marched this frame")
-        .clone();
-    assert_eq!(frame.frame.size, map_size);
-    let camera_m = rig
-        .app
-        .world()
-        .get::<GlobalTransform>(rig.camera)
-        .unwrap()
-        .translation()
-        .as_dvec3();
-    let image = ShadowMapImage {
-        frame: frame.relative_to(camera_m),
-        texels: map,
-    };
     let (shafts_l, _) = rig.reference_with_shadow(&textures, Some(&image));
     let (flat_l, _) = rig.reference(&textures);
     save_strip(
@@ -355,7 +361,6 @@ fn light_shafts_follow_the_cloud_shadow_map() {
 /// light-marched frame by more than that, and stays close to it (the levels' approximation).
 #[test]
 fn far_cloud_samples_take_the_sun_from_the_shadow_map() {
-    use bevy_cloudscape::{reference::shadow::ShadowMapImage, render::haze::CloudShadowFrame};
     let size = UVec2::new(64, 36);
     let textures = CloudTextures::from_recipe(&small_recipe());
     let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
@@ -378,25 +383,7 @@ fn far_cloud_samples_take_the_sun_from_the_shadow_map() {
     };
     rig.set_scene(&scene);
     let (gpu_l, _) = rig.render(4);
-    let (map_size, texels) = read_shadow_texels(&mut rig);
-    let frame = rig
-        .app
-        .render_world()
-        .get_resource::<CloudShadowFrame>()
-        .expect("the shadow map was marched this frame")
-        .clone();
-    assert_eq!(frame.frame.size, map_size);
-    let camera_m = rig
-        .app
-        .world()
-        .get::<GlobalTransform>(rig.camera)
-        .unwrap()
-        .translation()
-        .as_dvec3();
-    let image = ShadowMapImage {
-        frame: frame.relative_to(camera_m),
-        texels,
-    };
+    let image = gpu_shadow_image(&mut rig);
     let (map_l, _) = rig.reference_with_shadow(&textures, Some(&image));
     let mut marched = rig.rendered_view.clone().unwrap();
     marched.settings.sun_from_shadow_map_m = f64::INFINITY;

@@ -25,7 +25,8 @@ struct HazeUniforms {
     // `sun_transmittance` everywhere.
     shafts: u32,
     sun_transmittance: f32,
-    pad: u32,
+    // The fraction of the sky's diffuse light the clouds let through to the haze.
+    ambient_transmittance: f32,
 }
 
 // The cloud shadow map and its frame are the clouds library's (binding 9, `clouds.shadow_map_*`).
@@ -44,14 +45,15 @@ struct HazeResult {
 
 // The sun's transmittance through the clouds at `position_m` (relative to the camera).
 // Rust: `ShadowMapImage::ground_transmittance`, or `HazeSettings::sun_transmittance` without
-// shafts.
+// shafts and beyond the map.
 fn sun_visibility(position_m: vec3<f32>) -> f32 {
     if haze.shafts == 0u {
         return haze.sun_transmittance;
     }
+    // Beyond the map, the clouds' mean shade (Rust: `march_haze`).
     let uv = shadow_map_uv(position_m);
     if !shadow_map_covers(uv) {
-        return 1.0;
+        return haze.sun_transmittance;
     }
     return sample_shadow_map(uv).r;
 }
@@ -76,7 +78,7 @@ fn march_haze(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, split_m: 
     }
     let cos_sun = clamp(dot(direction, clouds.sun_direction.xyz), -1.0, 1.0);
     let sun = clouds.sun_illuminance.xyz * henyey_greenstein(cos_sun, haze.asymmetry);
-    let ambient = 0.5 * (clouds.ambient_top.xyz + clouds.ambient_bottom.xyz);
+    let ambient = 0.5 * (clouds.ambient_top.xyz + clouds.ambient_bottom.xyz) * haze.ambient_transmittance;
     let steps = clamp(haze.steps, 1u, MAX_HAZE_STEPS);
     let n = f32(steps);
     let span = end - start;

@@ -11,10 +11,9 @@
 //! the sun's transmittance from the cloud shadow map ([`crate::render::shadow`]): air in a
 //! cloud's shadow scatters no sunlight and air under a gap does, which draws crepuscular rays.
 //! The map covers [`CloudShadows::extent_m`](crate::render::shadow::CloudShadows::extent_m)
-//! around the camera; beyond it the air is lit. With the shafts off, or with no map (shadows
-//! disabled, night), the whole view uses one number, the clouds' mean transmittance toward the
-//! sun ([`crate::reference::haze::mean_sun_transmittance`]), so overcast skies still dim the
-//! haze.
+//! around the camera. Beyond it, with the shafts off, or with no map (shadows disabled, night),
+//! the haze uses one number, the clouds' mean transmittance toward the sun
+//! ([`crate::reference::haze::mean_sun_transmittance`]), so overcast skies still dim it.
 //!
 //! # What it costs
 //!
@@ -29,7 +28,10 @@ use bevy::{
 
 use super::VolumetricClouds;
 use crate::reference::{
-    haze::{HazeSettings, haze_extinction_for_visibility, mean_sun_transmittance},
+    haze::{
+        HazeSettings, haze_extinction_for_visibility, mean_diffuse_transmittance,
+        mean_sun_transmittance,
+    },
     render::{MarchLayer, MarchSettings},
     shadow::ShadowMapFrame,
 };
@@ -115,6 +117,7 @@ pub fn haze_settings(
             layers,
             DVec3::from_array(march.sun_direction).dot(DVec3::from_array(march.camera_up)),
         ),
+        ambient_transmittance: mean_diffuse_transmittance(layers),
     }
 }
 
@@ -152,7 +155,7 @@ pub struct GpuHazeUniforms {
     steps: u32,
     shafts: u32,
     sun_transmittance: f32,
-    pad: u32,
+    ambient_transmittance: f32,
 }
 
 impl GpuHazeUniforms {
@@ -172,7 +175,7 @@ impl GpuHazeUniforms {
             steps: settings.steps,
             shafts: u32::from(settings.shafts && map_bound),
             sun_transmittance: settings.sun_transmittance as f32,
-            pad: 0,
+            ambient_transmittance: settings.ambient_transmittance as f32,
         }
     }
 }
