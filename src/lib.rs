@@ -10,7 +10,7 @@
 //! | weather | [`weather`] | meteoblue / Open-Meteo files to a [`weather::Forecast`], sampled into a [`weather::WeatherState`] |
 //! | sky | [`sky`] | the scene clock, and where the sun is for a place and a UTC instant (NREL SPA) |
 //! | layers | [`layers`] | [`layers::CloudLayer`]: altitude, coverage, density, kind and profile, wind |
-//! | CPU reference | [`reference`] | f64 twins of the GPU noise, march and shadow map: the truth the GPU is tested against, and CPU queries |
+//! | CPU reference | [`reference`](mod@reference) | f64 twins of the GPU noise, march and shadow map: the truth the GPU is tested against, and CPU queries |
 //! | noise | [`render::noise`] | compute pass filling tileable 3D cloud-noise textures once |
 //! | march | [`render::march`] | fullscreen ray-march of the layers per camera, stopped by the depth prepass, composited in HDR |
 //! | shadow | [`render::shadow`] | the cloud shadow map along the sun, applied to the sun's light on every `StandardMaterial` |

@@ -20,7 +20,7 @@
 //! orthographic map along the sun whose frame is the light's `Transform`: its rotation is the
 //! sun's, its translation the map centre, its x/y scale half the map extent. So the plugin:
 //!
-//! - gives the sun light (the one with [`Sun`](crate::sky::Sun), else the first directional
+//! - gives the sun light (the one with [`Sun`], else the first directional
 //!   light) a `DirectionalLightTexture` with the map's image, tiled;
 //! - moves that light's translation over the camera, snapped to whole texels in the light's
 //!   plane (so the shadows do not shimmer as the camera moves) and lifted 1000 km toward the sun
