@@ -109,6 +109,7 @@ fn reference_settings() -> VolumetricClouds {
         light_steps: 16,
         transmittance_cutoff: 0.0,
         jitter: false,
+        min_step_m: 0.0,
         ..VolumetricClouds::ULTRA
     }
 }

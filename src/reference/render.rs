@@ -215,6 +215,10 @@ pub struct MarchSettings {
     /// Infinity (the default): always the full light march. The map is the `shadow` argument of
     /// [`march_clouds`] (on the GPU, the bound map).
     pub sun_from_shadow_map_m: f64,
+    /// Shortest primary step, metres: a short interval (a thin layer, a fog bank) gets fewer
+    /// than [`MarchSettings::primary_steps`] steps ([`interval_steps`]). 0 (the default): always
+    /// `primary_steps`.
+    pub min_step_m: f64,
 }
 
 impl Default for MarchSettings {
@@ -243,6 +247,7 @@ impl Default for MarchSettings {
             jitter: true,
             frame_index: 0,
             sun_from_shadow_map_m: f64::INFINITY,
+            min_step_m: 0.0,
         }
     }
 }
@@ -1216,6 +1221,18 @@ pub fn ray_start_jitter(settings: &MarchSettings, pixel: [f64; 2]) -> f64 {
 // The march
 // ---------------------------------------------------------------------------------------------
 
+/// Primary steps across an interval `span_m` metres long: [`MarchSettings::primary_steps`]
+/// (clamped to `1..=MAX_PRIMARY_STEPS`), but no more than one per
+/// [`MarchSettings::min_step_m`] (plus one). WGSL twin: `interval_steps`.
+pub fn interval_steps(settings: &MarchSettings, span_m: f64) -> u32 {
+    let steps = settings.primary_steps.clamp(1, MAX_PRIMARY_STEPS);
+    if !is_positive(settings.min_step_m) || !is_positive(span_m) {
+        return steps;
+    }
+    let fit = (span_m / settings.min_step_m).min(f64::from(MAX_PRIMARY_STEPS)) as f32;
+    steps.min(fit as u32 + 1)
+}
+
 /// One ray's state and constants, shared by the steps of [`march_clouds`].
 struct Ray<'a> {
     textures: &'a CloudTextures,
@@ -1394,7 +1411,7 @@ impl Ray<'_> {
     /// (after adding the tail estimate and setting the transmittance to 0).
     fn march_interval(&mut self, start: f64, end: f64) -> bool {
         let settings = self.settings;
-        let steps = settings.primary_steps.clamp(1, MAX_PRIMARY_STEPS);
+        let steps = interval_steps(settings, end - start);
         let growth = settings.step_growth.max(0.0);
         let beta = growth * (end - start) / (1.0 + growth * start);
         let n = f64::from(steps);
@@ -2319,6 +2336,35 @@ mod tests {
         assert!((0.05..0.4).contains(&fractions[0]), "{fractions:?}");
         assert!((0.3..0.7).contains(&fractions[1]), "{fractions:?}");
         assert!((0.6..0.95).contains(&fractions[2]), "{fractions:?}");
+    }
+
+    #[test]
+    fn short_intervals_get_fewer_steps() {
+        let settings = MarchSettings {
+            primary_steps: 48,
+            min_step_m: 20.0,
+            ..MarchSettings::default()
+        };
+        // 355 m of fog seen 25° up from the ground: 18 steps of 20 m, not 48 of 7 m.
+        assert_eq!(interval_steps(&settings, 355.0), 18);
+        assert_eq!(interval_steps(&settings, 5_000.0), 48);
+        assert_eq!(interval_steps(&settings, 1.0), 1);
+        assert_eq!(interval_steps(&settings, 0.0), 48);
+        assert_eq!(interval_steps(&settings, f64::INFINITY), 48);
+        let off = MarchSettings {
+            min_step_m: 0.0,
+            ..settings.clone()
+        };
+        assert_eq!(interval_steps(&off, 355.0), 48);
+        // A homogeneous slab still matches its closed form with the floor on.
+        let layer = slab(0.002);
+        let floored = MarchSettings {
+            min_step_m: 100.0,
+            ..slab_settings(64, 60.0)
+        };
+        let marched = march_up(&floored, std::slice::from_ref(&layer));
+        let exact = homogeneous_slab(&floored, &layer);
+        assert!(relative_error(marched.radiance[1], exact.radiance[1]) < 0.005);
     }
 
     #[test]

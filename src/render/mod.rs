@@ -98,6 +98,11 @@ pub struct VolumetricClouds {
     /// Without a map (shadows off, night) the light march runs everywhere. Default 5 000 m
     /// (`LOW` 2 500, `HIGH` 10 000, `ULTRA` infinity: never).
     pub sun_from_shadow_map_m: f32,
+    /// Shortest primary step, metres: a short interval (a thin layer, a fog bank the camera
+    /// looks up through) is marched in fewer than [`VolumetricClouds::primary_steps`] steps, one
+    /// per `min_step_m`. Steps finer than the detail noise's texels (700 m / 32 = 22 m by
+    /// default) add little. Default 20 m (`ULTRA` 5 m); 0 always marches every primary step.
+    pub min_step_m: f32,
 }
 
 impl VolumetricClouds {
@@ -135,6 +140,7 @@ impl VolumetricClouds {
         haze_steps: 16,
         light_shafts: true,
         sun_from_shadow_map_m: 5_000.0,
+        min_step_m: 20.0,
     };
     /// More steps for close-ups and stills.
     pub const HIGH: Self = Self {
@@ -153,6 +159,7 @@ impl VolumetricClouds {
         transmittance_cutoff: 0.002,
         haze_steps: 48,
         sun_from_shadow_map_m: f32::INFINITY,
+        min_step_m: 5.0,
         ..Self::MEDIUM
     };
 }

@@ -48,7 +48,7 @@
 //         frame_index: u32,            // offset  64
 //         sun_from_shadow_map_m: f32,  // offset  68, FAR_AWAY when off
 //         shadow_map: u32,             // offset  72, 0 none, 1 bound
-//         pad_c: u32,                  // offset  76
+//         min_step_m: f32,             // offset  76
 //         camera_up: Vec4,             // offset  80, xyz unit up at the camera, w unused
 //         sun_direction: Vec4,         // offset  96, xyz unit toward the sun (world), w unused
 //         sun_illuminance: Vec4,       // offset 112, rgb lux at the clouds, atmosphere applied
@@ -95,7 +95,8 @@ struct CloudUniforms {
     sun_from_shadow_map_m: f32,
     // 1 when `cloud_shadow_map` and the shadow_map_* fields hold a map, 0 otherwise.
     shadow_map: u32,
-    pad_c: u32,
+    // Shortest primary step, m (Rust: `MarchSettings::min_step_m`; 0: always primary_steps).
+    min_step_m: f32,
     // xyz: unit vector from the planet centre through the camera.
     camera_up: vec4<f32>,
     // xyz: unit vector toward the sun, world space.
@@ -790,11 +791,22 @@ fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32) -> bool {
     return true;
 }
 
+// Primary steps across an interval span_m long: primary_steps, but no more than one per
+// min_step_m (plus one). The count is computed in f32 on both sides. Rust: `interval_steps`.
+fn interval_steps(span_m: f32) -> u32 {
+    let steps = clamp(clouds.primary_steps, 1u, MAX_PRIMARY_STEPS);
+    if !(clouds.min_step_m > 0.0) || !(span_m > 0.0) {
+        return steps;
+    }
+    let fit = min(span_m / clouds.min_step_m, f32(MAX_PRIMARY_STEPS));
+    return min(steps, u32(fit) + 1u);
+}
+
 // primary_steps steps over [start, end], growing with distance, with two-level stepping
 // (Schneider 2015; seed 002 "Optimization"); false once the cut-off is reached.
 // Rust: `Ray::march_interval`.
 fn march_interval(ray: ptr<function, MarchRay>, start: f32, end: f32) -> bool {
-    let steps = clamp(clouds.primary_steps, 1u, MAX_PRIMARY_STEPS);
+    let steps = interval_steps(end - start);
     let growth = max(clouds.step_growth, 0.0);
     let beta = growth * (end - start) / (1.0 + growth * start);
     let n = f32(steps);

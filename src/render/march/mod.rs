@@ -296,6 +296,11 @@ pub fn march_inputs<'a>(
         pixel_angle_rad,
         jitter: settings.jitter,
         frame_index,
+        min_step_m: if settings.min_step_m.is_finite() {
+            f64::from(settings.min_step_m.max(0.0))
+        } else {
+            0.0
+        },
         sun_from_shadow_map_m: if settings.sun_from_shadow_map_m.is_nan() {
             f64::INFINITY
         } else {
@@ -459,7 +464,7 @@ pub struct GpuCloudUniforms {
     frame_index: u32,
     sun_from_shadow_map_m: f32,
     shadow_map: u32,
-    pad_c: u32,
+    min_step_m: f32,
     camera_up: Vec4,
     sun_direction: Vec4,
     sun_illuminance: Vec4,
@@ -519,7 +524,7 @@ impl GpuCloudUniforms {
             frame_index: settings.frame_index,
             sun_from_shadow_map_m: sun_from_map,
             shadow_map: u32::from(map.is_some()),
-            pad_c: 0,
+            min_step_m: settings.min_step_m as f32,
             camera_up: vec4(settings.camera_up),
             sun_direction: vec4(settings.sun_direction),
             sun_illuminance: vec4(settings.sun_illuminance),
