@@ -139,12 +139,22 @@ impl HazeSettings {
 /// fraction `c` shades the air by its own slant transmittance, the gaps not at all.
 pub fn mean_sun_transmittance(layers: &[super::render::MarchLayer], mu_sun: f64) -> f64 {
     let mu = mu_sun.max(0.05);
+    mean_layer_transmittance(layers, |tau| (-tau / mu).exp())
+}
+
+/// The product over the active `layers` of `1 − c (1 − t(τ))`: the light a layer of coverage `c`
+/// lets through when its clouds, of vertical optical thickness `τ = σ h`, pass `t(τ)` of it and
+/// its gaps all of it.
+fn mean_layer_transmittance(
+    layers: &[super::render::MarchLayer],
+    cloud: impl Fn(f64) -> f64,
+) -> f64 {
     layers
         .iter()
         .filter(|layer| super::render::layer_is_active(layer))
         .map(|layer| {
-            let slant = layer.extinction * (layer.top_m - layer.base_m) / mu;
-            1.0 - layer.coverage.clamp(0.0, 1.0) * (1.0 - (-slant).exp())
+            let tau = layer.extinction * (layer.top_m - layer.base_m);
+            1.0 - layer.coverage.clamp(0.0, 1.0) * (1.0 - cloud(tau))
         })
         .product::<f64>()
         .clamp(0.0, 1.0)
@@ -161,16 +171,9 @@ pub const CLOUD_ASYMMETRY: f64 = 0.85;
 /// and some of its observable consequences"), with `g` = [`CLOUD_ASYMMETRY`]. A thick deck still
 /// lets a quarter or so through, as overcast days show.
 pub fn mean_diffuse_transmittance(layers: &[super::render::MarchLayer]) -> f64 {
-    layers
-        .iter()
-        .filter(|layer| super::render::layer_is_active(layer))
-        .map(|layer| {
-            let tau = layer.extinction * (layer.top_m - layer.base_m);
-            let diffuse = 1.0 / (1.0 + 0.75 * (1.0 - CLOUD_ASYMMETRY) * tau);
-            1.0 - layer.coverage.clamp(0.0, 1.0) * (1.0 - diffuse)
-        })
-        .product::<f64>()
-        .clamp(0.0, 1.0)
+    mean_layer_transmittance(layers, |tau| {
+        1.0 / (1.0 + 0.75 * (1.0 - CLOUD_ASYMMETRY) * tau)
+    })
 }
 
 /// The haze along one view ray: the part in front of the clouds and the part behind them.
@@ -310,6 +313,28 @@ mod tests {
 
     const UP: [f64; 3] = [0.0, 1.0, 0.0];
 
+    /// [`march_haze`] to the sky from `altitude` m, jitter 0.5, default march settings.
+    fn sky_ray(
+        haze: &HazeSettings,
+        altitude: f64,
+        direction: [f64; 3],
+        split_m: f64,
+        shadow: Option<&ShadowMapImage>,
+    ) -> HazeResult {
+        let settings = MarchSettings::default();
+        march_haze(
+            &settings,
+            haze,
+            altitude,
+            UP,
+            direction,
+            f64::INFINITY,
+            split_m,
+            0.5,
+            shadow,
+        )
+    }
+
     /// A horizontal ray from 2 m above the ground, facing −z (north), sun behind the camera.
     fn level_view(haze: &HazeSettings, t_max: f64) -> HazeResult {
         let settings = MarchSettings {
@@ -398,30 +423,9 @@ mod tests {
             steps: 24,
             ..HazeSettings::default()
         };
-        let settings = MarchSettings::default();
         let direction = [0.0, 0.1, -0.995];
-        let whole = march_haze(
-            &settings,
-            &haze,
-            500.0,
-            UP,
-            direction,
-            f64::INFINITY,
-            f64::INFINITY,
-            0.3,
-            None,
-        );
-        let split = march_haze(
-            &settings,
-            &haze,
-            500.0,
-            UP,
-            direction,
-            f64::INFINITY,
-            4_000.0,
-            0.3,
-            None,
-        );
+        let whole = sky_ray(&haze, 500.0, direction, f64::INFINITY, None);
+        let split = sky_ray(&haze, 500.0, direction, 4_000.0, None);
         // With clear "clouds" (T = 1, L = 0), the split composites to the unsplit ray.
         let joined = composite(&split, &MarchResult::CLEAR);
         assert!(split.back.transmittance < 1.0 && split.front.transmittance < 1.0);
@@ -470,21 +474,8 @@ mod tests {
             extinction_per_m: 1e-4,
             ..HazeSettings::default()
         };
-        let settings = MarchSettings::default();
-        let look = |direction: [f64; 3]| {
-            march_haze(
-                &settings,
-                &haze,
-                10.0,
-                UP,
-                direction,
-                f64::INFINITY,
-                f64::INFINITY,
-                0.5,
-                Some(&map),
-            )
-            .front
-        };
+        let look =
+            |direction: [f64; 3]| sky_ray(&haze, 10.0, direction, f64::INFINITY, Some(&map)).front;
         let shadowed = look([-0.9, 0.0, -0.436]);
         let lit = look([0.9, 0.0, -0.436]);
         assert!(
@@ -499,28 +490,8 @@ mod tests {
             sun_transmittance: 0.5,
             ..haze
         };
-        let a = march_haze(
-            &settings,
-            &flat,
-            10.0,
-            UP,
-            [0.9, 0.0, -0.436],
-            f64::INFINITY,
-            f64::INFINITY,
-            0.5,
-            Some(&map),
-        );
-        let b = march_haze(
-            &settings,
-            &flat,
-            10.0,
-            UP,
-            [-0.9, 0.0, -0.436],
-            f64::INFINITY,
-            f64::INFINITY,
-            0.5,
-            Some(&map),
-        );
+        let a = sky_ray(&flat, 10.0, [0.9, 0.0, -0.436], f64::INFINITY, Some(&map));
+        let b = sky_ray(&flat, 10.0, [-0.9, 0.0, -0.436], f64::INFINITY, Some(&map));
         assert!((a.front.radiance[1] - b.front.radiance[1]).abs() < 1e-9);
     }
 

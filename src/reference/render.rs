@@ -1107,8 +1107,8 @@ pub fn light_march_distance(
 
 /// The cosine of the sun's zenith angle at `position_m` (relative to a camera at
 /// `camera_altitude_m` with local vertical `up`), whose altitude is `altitude_m`: the local up
-/// there is `(A·up + p) / (R + alt)`. WGSL twin: inline in `sun_optical_depth`.
-fn point_mu_sun(
+/// there is `(A·up + p) / (R + alt)`. WGSL twin: `point_mu_sun`.
+pub(super) fn point_mu_sun(
     settings: &MarchSettings,
     camera_altitude_m: f64,
     up: [f64; 3],

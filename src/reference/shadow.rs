@@ -37,8 +37,8 @@
 
 use super::render::{
     CloudTextures, MarchLayer, MarchSettings, NO_HIT, add, altitude_along_ray, altitude_of, dot,
-    horizontal_axes, intersect_altitude_sphere, is_positive, next_cloud_interval, scale,
-    total_extinction,
+    horizontal_axes, intersect_altitude_sphere, is_positive, next_cloud_interval, point_mu_sun,
+    scale, total_extinction,
 };
 
 /// Most steps per layer interval of the shadow march ([`shadow_optical_depth`]). WGSL twin:
@@ -136,10 +136,13 @@ fn visit_sun_line(
     let radius = settings.planet_radius_m;
     let sun = settings.sun_direction;
     let altitude = altitude_of(settings, position_m);
-    let mu = ((radius + settings.camera_altitude_m) * dot(sun, settings.camera_up)
-        + dot(sun, position_m))
-        / (radius + altitude);
-    let mu = mu.clamp(-1.0, 1.0);
+    let mu = point_mu_sun(
+        settings,
+        settings.camera_altitude_m,
+        settings.camera_up,
+        position_m,
+        altitude,
+    );
     // Light travels along −sun, so it reaches the far root (largest distance toward the sun)
     // first.
     let ground = intersect_altitude_sphere(altitude, mu, radius, 0.0);

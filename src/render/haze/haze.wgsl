@@ -1,7 +1,8 @@
 #define_import_path bevy_cloudscape::haze
 
 // Haze and light shafts: the air along the view ray, lit by the sun through the cloud shadow map.
-// A shader library imported by `march.wgsl`, which binds @binding(8) and @binding(9).
+// A shader library imported by `march.wgsl`, which binds @binding(8) (and the clouds library's
+// shadow map at @binding(9)).
 // CPU twin: `src/reference/haze.rs` (same names; its module docs give the model and sources).
 // Rust side: `src/render/haze/mod.rs`.
 

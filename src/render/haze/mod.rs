@@ -121,9 +121,9 @@ pub fn haze_settings(
     }
 }
 
-/// Where the cloud shadow map lies this frame, for the light shafts (render world): the map's
-/// frame relative to the camera it follows, and that camera's position. Absent while no map
-/// holds shadows (disabled, night, no clouds).
+/// Where the cloud shadow map lies this frame, for the light shafts and the sun of far cloud
+/// samples (render world): the map's frame relative to the camera it follows, and that camera's
+/// position. Absent while no map holds shadows (disabled, night, no clouds).
 #[derive(Resource, Clone, Debug)]
 pub struct CloudShadowFrame {
     /// The shadow map image.

@@ -933,13 +933,8 @@ struct SunLine {
 fn sun_line(position_m: vec3<f32>) -> SunLine {
     let radius = clouds.planet_radius_m;
     let sun = clouds.sun_direction.xyz;
-    let up = clouds.camera_up.xyz;
     let altitude = altitude_of(position_m);
-    let mu = clamp(
-        ((radius + clouds.camera_altitude_m) * dot(sun, up) + dot(sun, position_m)) / (radius + altitude),
-        -1.0,
-        1.0,
-    );
+    let mu = point_mu_sun(clouds.camera_altitude_m, clouds.camera_up.xyz, position_m, altitude);
     // Light travels along -sun and reaches the far root first.
     let ground = intersect_altitude_sphere(altitude, mu, radius, 0.0);
     var start = ground.y;

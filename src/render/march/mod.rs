@@ -695,6 +695,7 @@ fn prepare_cloud_view_buffers(
     mut commands: Commands,
     views: Query<(Entity, &ExtractedCloudView)>,
     shadow: Option<Res<CloudShadowFrame>>,
+    images: Res<RenderAssets<GpuImage>>,
     device: Res<RenderDevice>,
     queue: Res<RenderQueue>,
 ) {
@@ -706,8 +707,10 @@ fn prepare_cloud_view_buffers(
             // Haze alone: a storage binding may not be empty; this layer is never read.
             gpu_layers.push(GpuCloudLayer::default());
         }
-        // The cloud shadow map, for the light shafts and the sun of far samples.
-        let map = shadow.as_deref();
+        // The cloud shadow map, for the light shafts and the sun of far samples; only once its
+        // image is on the GPU (the pass binds a white stand-in otherwise, which would read as
+        // "no cloud anywhere").
+        let map = shadow.as_deref().filter(|m| images.get(m.image).is_some());
         let frame = map.map(|m| m.relative_to(view.camera_m));
         let mut uniforms = UniformBuffer::from(GpuCloudUniforms::new(
             &view.settings,
@@ -1092,7 +1095,7 @@ fn march_cloud_layers(
     ) else {
         return;
     };
-    // The shadow map for the light shafts; white (never read) without one.
+    // The shadow map for the light shafts and far samples; white (never read) without one.
     let shadow_map = buffers
         .shadow_map
         .and_then(|id| images.get(id))

@@ -40,7 +40,8 @@
 //!
 //! # What a frame costs
 //!
-//! One dispatch of `resolution²` threads, each marching `steps` samples per layer it crosses.
+//! One dispatch of `resolution²` threads, each marching `steps` samples per layer it crosses,
+//! twice (the whole optical depth first, then where it crosses the knots).
 //! With no visible layer, with the sun at or below the horizon, or with the shadows disabled, no
 //! pass runs: the map is set to 1 (no shadow) once, with an upload, and left alone
 //! ([`CloudShadowStats`] counts both).
