@@ -15,12 +15,16 @@ use bevy::{
 use bevy_cloudscape::{
     prelude::*,
     reference::{
-        haze::{composite, march_haze},
+        composite::{LowResImage, upsample},
+        haze::{HazeSun, ShaftFactors, composite, march_haze, shaft_factors, shaft_ray_end_m},
         noise::NoiseRecipe,
-        render::{CloudTextures, march_clouds, ray_start_jitter},
+        render::{CloudTextures, MarchResult, march_clouds, ray_start_jitter},
         shadow::ShadowMapImage,
     },
-    render::march::{CloudPassStats, ExtractedCloudView},
+    render::{
+        composite::low_res_size,
+        march::{CloudPassStats, ExtractedCloudView},
+    },
 };
 
 use super::headless::Headless;
@@ -284,17 +288,51 @@ impl CloudRig {
         self.reference_with_shadow(textures, None)
     }
 
-    /// [`CloudRig::reference`] with the haze reading `shadow` for its light shafts.
+    /// [`CloudRig::reference`] with the clouds and the haze reading `shadow`; the light shafts
+    /// as the GPU draws them (factors at the view's shaft resolution, upsampled).
     pub fn reference_with_shadow(
         &mut self,
         textures: &CloudTextures,
         shadow: Option<&ShadowMapImage>,
     ) -> (Vec<[f32; 3]>, Vec<f32>) {
+        self.reference_with_shafts(textures, shadow, false)
+    }
+
+    /// [`CloudRig::reference_with_shadow`]; with `per_sample`, the haze reads the map at every
+    /// sample instead of through the reduced-resolution factors (what the factors approximate).
+    pub fn reference_with_shafts(
+        &mut self,
+        textures: &CloudTextures,
+        shadow: Option<&ShadowMapImage>,
+        per_sample: bool,
+    ) -> (Vec<[f32; 3]>, Vec<f32>) {
+        let size = self.app.size;
+        self.reference_pixels(Some(textures), size, shadow, per_sample)
+    }
+
+    /// The haze alone (no clouds in front of it) of the current view at `size` pixels, lit
+    /// through `shadow` as [`CloudRig::reference_with_shafts`] lights it: (L·exposure, T).
+    pub fn haze_reference(
+        &mut self,
+        size: UVec2,
+        shadow: &ShadowMapImage,
+        per_sample: bool,
+    ) -> (Vec<[f32; 3]>, Vec<f32>) {
+        self.reference_pixels(None, size, Some(shadow), per_sample)
+    }
+
+    /// The CPU twin of the view at `size` pixels; without `textures`, the haze alone.
+    fn reference_pixels(
+        &mut self,
+        textures: Option<&CloudTextures>,
+        size: UVec2,
+        shadow: Option<&ShadowMapImage>,
+        per_sample: bool,
+    ) -> (Vec<[f32; 3]>, Vec<f32>) {
         let view = self
             .rendered_view
             .clone()
             .unwrap_or_else(|| self.extracted());
-        let size = self.app.size;
         let world = self.app.world();
         let camera = world.get::<Camera>(self.camera).unwrap();
         let world_from_clip = world
@@ -307,29 +345,78 @@ impl CloudRig {
             .unwrap()
             .translation();
         let exposure = f64::from(EXPOSURE.exposure());
+        // The same ray as march.wgsl: through the pixel centre `uv` on the near plane.
+        let ray = |uv: Vec2| {
+            let ndc = Vec2::new(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0);
+            let near = world_from_clip * Vec4::new(ndc.x, ndc.y, 1.0, 1.0);
+            let direction = (near.truncate() / near.w - position).normalize();
+            direction.as_dvec3().to_array()
+        };
+        // The shaft pass: factors at the reduced resolution (the rig has no geometry: every ray
+        // ends in the sky).
+        let shafts = shadow
+            .filter(|_| !per_sample)
+            .zip(view.shaft_resolution_scale)
+            .map(|(map, scale)| {
+                let low = low_res_size(size, scale);
+                let mut values = Vec::new();
+                let mut distances_m = Vec::new();
+                for y in 0..low.y {
+                    for x in 0..low.x {
+                        let pixel = Vec2::new(x as f32, y as f32) + 0.5;
+                        let jitter = ray_start_jitter(
+                            &view.settings,
+                            [f64::from(pixel.x), f64::from(pixel.y)],
+                        );
+                        let direction = ray(pixel / low.as_vec2());
+                        let f = shaft_factors(
+                            &view.settings,
+                            &view.haze,
+                            view.settings.camera_altitude_m,
+                            view.settings.camera_up,
+                            direction,
+                            f64::INFINITY,
+                            jitter,
+                            map,
+                        );
+                        values.push([f.below, f.above]);
+                        distances_m.push(shaft_ray_end_m(
+                            &view.settings,
+                            view.settings.camera_altitude_m,
+                            view.settings.camera_up,
+                            direction,
+                            f64::INFINITY,
+                        ));
+                    }
+                }
+                let image = LowResImage {
+                    size: low.to_array(),
+                    distances_m,
+                    values,
+                };
+                (image, map.frame.cloud_range_m[0])
+            });
         let mut radiance = Vec::new();
         let mut transmittance = Vec::new();
         for y in 0..size.y {
             for x in 0..size.x {
-                // The same ray as march.wgsl: through the pixel centre on the near plane.
                 let uv = (Vec2::new(x as f32, y as f32) + 0.5) / size.as_vec2();
-                let ndc = Vec2::new(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0);
-                let near = world_from_clip * Vec4::new(ndc.x, ndc.y, 1.0, 1.0);
-                let direction = (near.truncate() / near.w - position).normalize();
                 let pixel = [f64::from(x) + 0.5, f64::from(y) + 0.5];
                 let jitter = ray_start_jitter(&view.settings, pixel);
-                let direction = direction.as_dvec3().to_array();
-                let clouds = march_clouds(
-                    textures,
-                    &view.settings,
-                    &view.layers,
-                    view.settings.camera_altitude_m,
-                    view.settings.camera_up,
-                    direction,
-                    f64::INFINITY,
-                    jitter,
-                    shadow,
-                );
+                let direction = ray(uv);
+                let clouds = textures.map_or(MarchResult::CLEAR, |textures| {
+                    march_clouds(
+                        textures,
+                        &view.settings,
+                        &view.layers,
+                        view.settings.camera_altitude_m,
+                        view.settings.camera_up,
+                        direction,
+                        f64::INFINITY,
+                        jitter,
+                        shadow,
+                    )
+                });
                 let haze = march_haze(
                     &view.settings,
                     &view.haze,
@@ -339,7 +426,26 @@ impl CloudRig {
                     f64::INFINITY,
                     clouds.distance_m,
                     jitter,
-                    shadow,
+                    match (&shafts, shadow) {
+                        (Some((image, split)), _) => {
+                            let end = shaft_ray_end_m(
+                                &view.settings,
+                                view.settings.camera_altitude_m,
+                                view.settings.camera_up,
+                                direction,
+                                f64::INFINITY,
+                            );
+                            let [below, above] =
+                                upsample(image, [f64::from(uv.x), f64::from(uv.y)], end);
+                            HazeSun::Shafts(ShaftFactors {
+                                below,
+                                above,
+                                split_altitude_m: *split,
+                            })
+                        }
+                        (None, Some(map)) if per_sample => HazeSun::PerSample(map),
+                        _ => HazeSun::Mean,
+                    },
                 );
                 let result = composite(&haze, &clouds);
                 radiance.push(result.radiance.map(|v| (v * exposure) as f32));

@@ -18,10 +18,14 @@
 //! phase of asymmetry `g` (continental aerosol: albedo about 0.9, `g` about 0.7). It is lit by
 //!
 //! - the sun, dimmed by the clouds above it: with light shafts on, the fraction read from the
-//!   cloud shadow map at the sample (the transmittance along its sun line through every layer;
+//!   cloud shadow map (the transmittance along a sample's sun line through every layer;
 //!   [`crate::reference::shadow`]), so shadowed air is dark and the air in a gap is bright: the
-//!   crepuscular rays. With shafts off, with no shadow map, and beyond the map's extent, one
-//!   number for the whole view, [`mean_sun_transmittance`]: the clouds' average shade;
+//!   crepuscular rays. The GPU does not read the map at every sample of every pixel: a pass at a
+//!   reduced resolution reduces each ray to two [`ShaftFactors`] ([`shaft_factors`]), the mean
+//!   sunlit fraction below the lowest cloud base and above it, and the march lights its samples
+//!   with those ([`HazeSun::Shafts`]); [`HazeSun::PerSample`] is what they approximate. With
+//!   shafts off, with no shadow map, and beyond the map's extent, one number for the whole
+//!   view, [`mean_sun_transmittance`]: the clouds' average shade;
 //! - the sky and the ground, isotropically: the mean of the clouds' top and bottom ambient
 //!   radiance (sky above, ground-reflected light below), times the fraction of diffuse light the
 //!   clouds let through ([`mean_diffuse_transmittance`]): under an overcast deck the haze sees
@@ -59,8 +63,13 @@ pub const CLEAR_AIR_EXTINCTION_PER_M: f64 = 1.6e-5;
 /// density).
 pub const HAZE_TOP_SCALE_HEIGHTS: f64 = 8.0;
 
-/// Most steps of [`march_haze`]. WGSL twin: `MAX_HAZE_STEPS`.
+/// Most steps of [`march_haze`] and [`shaft_factors`]. WGSL twin: `MAX_HAZE_STEPS`.
 pub const MAX_HAZE_STEPS: u32 = 128;
+
+/// [`HazeSettings::shaft_steps`] per [`HazeSettings::steps`] in the views of the plugin: the
+/// shaft pass runs on a sixteenth of the pixels (at the default quarter resolution), so four
+/// times the samples still cost a quarter of reading the map at every march sample.
+pub const SHAFT_STEPS_PER_HAZE_STEP: u32 = 4;
 
 /// Haze extinction at the ground, 1/m, for a meteorological visibility of `visibility_m`
 /// metres: `3.912 / V` less the clear air's [`CLEAR_AIR_EXTINCTION_PER_M`], never negative.
@@ -86,9 +95,12 @@ pub struct HazeSettings {
     pub asymmetry: f64,
     /// Steps along the view ray, clamped to `1..=MAX_HAZE_STEPS`. Default 16.
     pub steps: u32,
-    /// Light shafts: read the sun's transmittance from the cloud shadow map at every sample.
-    /// Default true.
+    /// Light shafts: light the haze through the cloud shadow map. Default true.
     pub shafts: bool,
+    /// Steps of [`shaft_factors`] along the view ray, clamped to `1..=MAX_HAZE_STEPS`: the
+    /// shaft pass runs on few pixels, so it can afford more samples than the march, which
+    /// keeps the noise of its jittered samples down. Default 64.
+    pub shaft_steps: u32,
     /// The sun's transmittance through the clouds used without shafts or without a map, 0–1
     /// ([`mean_sun_transmittance`]). Default 1.
     pub sun_transmittance: f64,
@@ -106,6 +118,7 @@ impl Default for HazeSettings {
             asymmetry: 0.7,
             steps: 16,
             shafts: true,
+            shaft_steps: 64,
             sun_transmittance: 1.0,
             ambient_transmittance: 1.0,
         }
@@ -203,12 +216,172 @@ pub fn haze_interval(
     [near.max(0.0), far.min(t_end)]
 }
 
+/// Where the haze's sun light comes from in [`march_haze`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum HazeSun<'a> {
+    /// One number for the whole view, [`HazeSettings::sun_transmittance`]: the clouds' mean
+    /// shade (no light shafts).
+    Mean,
+    /// Light shafts as the GPU draws them: the ray's [`ShaftFactors`], from the
+    /// reduced-resolution shaft pass ([`shaft_factors`], upsampled).
+    Shafts(ShaftFactors),
+    /// Light shafts read from the shadow map at every haze sample: what the factors
+    /// approximate, for tests (no GPU twin).
+    PerSample(&'a ShadowMapImage),
+}
+
+/// The light shafts along one view ray, as two numbers: the mean fraction of sunlight that
+/// reaches the haze below the lowest cloud base, and above it, each weighted by how much that
+/// haze contributes to the pixel (its scattering coefficient times the haze transmittance from
+/// the camera). Below the cloud base no cloud lies between the haze and the camera (for a
+/// camera below the clouds), so there the factor gives exactly the radiance that reading the
+/// map at every sample gives ([`HazeSun::PerSample`]); above it, the clouds' distance splits the
+/// haze into front and back, and the factor spreads the sunlit fraction evenly over both.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShaftFactors {
+    /// Mean sun transmittance of the haze below `split_altitude_m`, 0–1.
+    pub below: f64,
+    /// Mean sun transmittance of the haze at and above `split_altitude_m`, 0–1.
+    pub above: f64,
+    /// The lowest cloud base, metres above the ground (the shadow map's
+    /// [`cloud_range_m`](super::shadow::ShadowMapFrame::cloud_range_m)`[0]`).
+    pub split_altitude_m: f64,
+}
+
+/// One step of the haze march: its sample distance, altitude and extinction, its length, and the
+/// weight of its in-scattered light (transmittance from the start of the haze times the
+/// energy-conserving step integral, per unit source).
+struct HazeStep {
+    t: f64,
+    altitude_m: f64,
+    optical_depth: f64,
+    weight: f64,
+}
+
+/// The `steps` steps of the haze along one view ray (see the module docs), or none where the ray
+/// misses the haze. Shared by [`march_haze`] and [`shaft_factors`].
+fn haze_steps(
+    settings: &MarchSettings,
+    haze: &HazeSettings,
+    steps: u32,
+    camera_altitude_m: f64,
+    mu: f64,
+    t_max: f64,
+    jitter: f64,
+) -> Vec<HazeStep> {
+    if !haze.is_active() {
+        return Vec::new();
+    }
+    let radius = settings.planet_radius_m;
+    let [start, end] = haze_interval(haze, radius, camera_altitude_m, mu, t_max);
+    if !super::render::is_positive(end - start) {
+        return Vec::new();
+    }
+    let steps = steps.clamp(1, MAX_HAZE_STEPS);
+    let n = f64::from(steps);
+    let jitter = jitter.clamp(0.0, 1.0);
+    let mut total_depth = 0.0_f64;
+    (0..steps)
+        .map(|k| {
+            let u0 = f64::from(k) / n;
+            let u1 = f64::from(k + 1) / n;
+            let ta = start + (end - start) * u0 * u0;
+            let tb = start + (end - start) * u1 * u1;
+            let dt = tb - ta;
+            let t = ta + jitter * dt;
+            let altitude_m = altitude_along_ray(camera_altitude_m, mu, t, radius);
+            let sigma = haze.extinction_at(altitude_m);
+            let x = sigma * dt;
+            let weight = (-total_depth).exp() * dt * mean_step_transmittance(x) * sigma;
+            total_depth += x;
+            HazeStep {
+                t,
+                altitude_m,
+                optical_depth: x,
+                weight,
+            }
+        })
+        .collect()
+}
+
+/// The [`ShaftFactors`] of one view ray: [`HazeSettings::shaft_steps`] haze samples (the same
+/// as [`march_haze`]'s where that equals [`HazeSettings::steps`]) read the sun's transmittance
+/// from `map`, or
+/// [`HazeSettings::sun_transmittance`] beyond it, and are averaged with their weights below and
+/// above the lowest cloud base. A part the ray does not reach gets the mean shade. WGSL twin:
+/// `shaft_factors`, run by the reduced-resolution shaft pass (`march.wgsl`'s `shafts` entry).
+#[allow(clippy::too_many_arguments)]
+pub fn shaft_factors(
+    settings: &MarchSettings,
+    haze: &HazeSettings,
+    camera_altitude_m: f64,
+    up: [f64; 3],
+    direction: [f64; 3],
+    t_max: f64,
+    jitter: f64,
+    map: &ShadowMapImage,
+) -> ShaftFactors {
+    let split_altitude_m = map.frame.cloud_range_m[0];
+    let mu = dot(direction, up).clamp(-1.0, 1.0);
+    // [below, above]: weighted sun transmittance and weight.
+    let mut lit = [0.0; 2];
+    let mut weight = [0.0; 2];
+    let steps = haze_steps(
+        settings,
+        haze,
+        haze.shaft_steps,
+        camera_altitude_m,
+        mu,
+        t_max,
+        jitter,
+    );
+    for step in steps {
+        let sun = map
+            .ground_transmittance(scale(direction, step.t))
+            .unwrap_or(haze.sun_transmittance);
+        let part = usize::from(step.altitude_m >= split_altitude_m);
+        lit[part] += step.weight * sun;
+        weight[part] += step.weight;
+    }
+    let mean = |part: usize| {
+        if weight[part] > 0.0 {
+            (lit[part] / weight[part]).clamp(0.0, 1.0)
+        } else {
+            haze.sun_transmittance
+        }
+    };
+    ShaftFactors {
+        below: mean(0),
+        above: mean(1),
+        split_altitude_m,
+    }
+}
+
+/// Where a view ray ends for the upsample of the shaft factors, metres: the scene at `t_max` or
+/// the ground sphere, whichever is nearer, as [`stored_distance`] (rays below the horizon of a
+/// scene with no ground geometry end at the planet, not in the sky). WGSL twin:
+/// `shaft_ray_end`.
+///
+/// [`stored_distance`]: super::composite::stored_distance
+pub fn shaft_ray_end_m(
+    settings: &MarchSettings,
+    camera_altitude_m: f64,
+    up: [f64; 3],
+    direction: [f64; 3],
+    t_max: f64,
+) -> f64 {
+    let mu = dot(direction, up).clamp(-1.0, 1.0);
+    let ground = ground_distance(camera_altitude_m, mu, settings.planet_radius_m);
+    super::composite::stored_distance(t_max.min(ground))
+}
+
 /// Marches the haze along one view ray (see the module docs). The camera is at
 /// `camera_altitude_m` with local vertical `up`; `direction` is the unit view ray, `t_max` the
 /// distance to the scene (infinity for the sky), `split_m` the clouds' distance (infinity
-/// without clouds), `jitter` the sample offset within each step (0–1). `shadow` is the cloud
-/// shadow map, read when [`HazeSettings::shafts`] is on. Radiance is in the units of the sun's
-/// illuminance per steradian, before exposure. WGSL twin: `march_haze`.
+/// without clouds), `jitter` the sample offset within each step (0–1). `sun` says how the
+/// clouds shade the haze's sunlight; with [`HazeSettings::shafts`] off it is always the mean
+/// shade. Radiance is in the units of the sun's illuminance per steradian, before exposure.
+/// WGSL twin: `march_haze`.
 #[allow(clippy::too_many_arguments)]
 pub fn march_haze(
     settings: &MarchSettings,
@@ -219,55 +392,43 @@ pub fn march_haze(
     t_max: f64,
     split_m: f64,
     jitter: f64,
-    shadow: Option<&ShadowMapImage>,
+    sun: HazeSun<'_>,
 ) -> HazeResult {
-    let clear = HazeResult {
-        front: MarchResult::CLEAR,
-        back: MarchResult::CLEAR,
-    };
-    if !haze.is_active() {
-        return clear;
-    }
-    let radius = settings.planet_radius_m;
     let mu = dot(direction, up).clamp(-1.0, 1.0);
-    let [start, end] = haze_interval(haze, radius, camera_altitude_m, mu, t_max);
-    if !super::render::is_positive(end - start) {
-        return clear;
-    }
+    let steps = haze_steps(
+        settings,
+        haze,
+        haze.steps,
+        camera_altitude_m,
+        mu,
+        t_max,
+        jitter,
+    );
     let cos_sun = dot(direction, settings.sun_direction).clamp(-1.0, 1.0);
     let phase = henyey_greenstein(cos_sun, haze.asymmetry);
     let ambient: [f64; 3] = std::array::from_fn(|c| {
         0.5 * (settings.ambient_top[c] + settings.ambient_bottom[c]) * haze.ambient_transmittance
     });
-    let shadow = shadow.filter(|_| haze.shafts);
-    let steps = haze.steps.clamp(1, MAX_HAZE_STEPS);
-    let n = f64::from(steps);
-    let jitter = jitter.clamp(0.0, 1.0);
+    let sun = if haze.shafts { sun } else { HazeSun::Mean };
     // [front, back]: radiance and optical depth.
     let mut radiance = [[0.0; 3]; 2];
     let mut optical_depth = [0.0; 2];
-    let mut total_depth = 0.0_f64;
-    for k in 0..steps {
-        let u0 = f64::from(k) / n;
-        let u1 = f64::from(k + 1) / n;
-        let ta = start + (end - start) * u0 * u0;
-        let tb = start + (end - start) * u1 * u1;
-        let dt = tb - ta;
-        let t = ta + jitter * dt;
-        let altitude = altitude_along_ray(camera_altitude_m, mu, t, radius);
-        let sigma = haze.extinction_at(altitude);
-        let x = sigma * dt;
-        // Beyond the map (and without one) the clouds' mean shade.
-        let sun = shadow
-            .and_then(|map| map.ground_transmittance(scale(direction, t)))
-            .unwrap_or(haze.sun_transmittance);
-        let weight = (-total_depth).exp() * dt * mean_step_transmittance(x) * sigma * haze.albedo;
-        let part = usize::from(t >= split_m);
+    for step in steps {
+        let visible = match sun {
+            HazeSun::Mean => haze.sun_transmittance,
+            HazeSun::Shafts(factors) if step.altitude_m < factors.split_altitude_m => factors.below,
+            HazeSun::Shafts(factors) => factors.above,
+            // Beyond the map, the clouds' mean shade.
+            HazeSun::PerSample(map) => map
+                .ground_transmittance(scale(direction, step.t))
+                .unwrap_or(haze.sun_transmittance),
+        };
+        let weight = step.weight * haze.albedo;
+        let part = usize::from(step.t >= split_m);
         for (c, value) in radiance[part].iter_mut().enumerate() {
-            *value += weight * (settings.sun_illuminance[c] * sun * phase + ambient[c]);
+            *value += weight * (settings.sun_illuminance[c] * visible * phase + ambient[c]);
         }
-        optical_depth[part] += x;
-        total_depth += x;
+        optical_depth[part] += step.optical_depth;
     }
     // The back part's radiance was weighted by the transmittance from the camera; stated
     // relative to the clouds' distance it is divided by the front's transmittance.
@@ -319,7 +480,7 @@ mod tests {
         altitude: f64,
         direction: [f64; 3],
         split_m: f64,
-        shadow: Option<&ShadowMapImage>,
+        sun: HazeSun<'_>,
     ) -> HazeResult {
         let settings = MarchSettings::default();
         march_haze(
@@ -331,7 +492,7 @@ mod tests {
             f64::INFINITY,
             split_m,
             0.5,
-            shadow,
+            sun,
         )
     }
 
@@ -350,7 +511,7 @@ mod tests {
             t_max,
             f64::INFINITY,
             0.5,
-            None,
+            HazeSun::Mean,
         )
     }
 
@@ -424,8 +585,8 @@ mod tests {
             ..HazeSettings::default()
         };
         let direction = [0.0, 0.1, -0.995];
-        let whole = sky_ray(&haze, 500.0, direction, f64::INFINITY, None);
-        let split = sky_ray(&haze, 500.0, direction, 4_000.0, None);
+        let whole = sky_ray(&haze, 500.0, direction, f64::INFINITY, HazeSun::Mean);
+        let split = sky_ray(&haze, 500.0, direction, 4_000.0, HazeSun::Mean);
         // With clear "clouds" (T = 1, L = 0), the split composites to the unsplit ray.
         let joined = composite(&split, &MarchResult::CLEAR);
         assert!(split.back.transmittance < 1.0 && split.front.transmittance < 1.0);
@@ -446,10 +607,9 @@ mod tests {
         assert!((seen.radiance[0] - expected).abs() < 1e-9);
     }
 
-    #[test]
-    fn shadowed_air_is_darker_than_sunlit_air() {
-        // A map whose left half (u < 0.5) is in full cloud shadow and right half lit: looking
-        // down the shadow line, the shaft of lit air is brighter.
+    /// A 40 km map, 16 texels a side, whose column `i` (from world +x to −x) has the sun's
+    /// transmittance `column(i)`; clouds from 1 to 2 km.
+    fn column_shadow_map(column: impl Fn(u32) -> f64) -> ShadowMapImage {
         let size = 16;
         let frame = ShadowMapFrame {
             centre_m: [0.0, 0.0, 0.0],
@@ -459,12 +619,16 @@ mod tests {
             cloud_range_m: [1000.0, 2000.0],
         };
         let texels = (0..size * size)
-            .map(|index| {
-                let t = if index % size < size / 2 { 0.0 } else { 1.0 };
-                [t, 0.0, 0.0, 0.0]
-            })
+            .map(|index| [column(index % size), 0.0, 0.0, 0.0])
             .collect();
-        let map = ShadowMapImage { frame, texels };
+        ShadowMapImage { frame, texels }
+    }
+
+    #[test]
+    fn shadowed_air_is_darker_than_sunlit_air() {
+        // Looking down the shadow line, the shaft of lit air is brighter.
+        // The half toward world −x is in full cloud shadow, the other half lit.
+        let map = column_shadow_map(|i| if i < 8 { 0.0 } else { 1.0 });
         // Texel u lies at centre + (1 − 2u) axis_x and axis_x points to −x, so u < 0.5 (the
         // shadowed half) is world −x.
         assert_eq!(map.ground_transmittance([-10_000.0, 0.0, 0.0]), Some(0.0));
@@ -474,25 +638,149 @@ mod tests {
             extinction_per_m: 1e-4,
             ..HazeSettings::default()
         };
-        let look =
-            |direction: [f64; 3]| sky_ray(&haze, 10.0, direction, f64::INFINITY, Some(&map)).front;
-        let shadowed = look([-0.9, 0.0, -0.436]);
-        let lit = look([0.9, 0.0, -0.436]);
-        assert!(
-            lit.radiance[1] > 1.5 * shadowed.radiance[1],
-            "lit {lit:?} shadowed {shadowed:?}"
-        );
-        // Same air, same transmittance: only the light differs.
-        assert!((lit.transmittance - shadowed.transmittance).abs() < 1e-12);
+        let settings = MarchSettings::default();
+        for per_sample in [true, false] {
+            let look = |direction: [f64; 3]| {
+                let sun = if per_sample {
+                    HazeSun::PerSample(&map)
+                } else {
+                    let factors = shaft_factors(
+                        &settings,
+                        &haze,
+                        10.0,
+                        UP,
+                        direction,
+                        f64::INFINITY,
+                        0.5,
+                        &map,
+                    );
+                    HazeSun::Shafts(factors)
+                };
+                sky_ray(&haze, 10.0, direction, f64::INFINITY, sun).front
+            };
+            let shadowed = look([-0.9, 0.0, -0.436]);
+            let lit = look([0.9, 0.0, -0.436]);
+            assert!(
+                lit.radiance[1] > 1.5 * shadowed.radiance[1],
+                "per sample {per_sample}: lit {lit:?} shadowed {shadowed:?}"
+            );
+            // Same air, same transmittance: only the light differs.
+            assert!((lit.transmittance - shadowed.transmittance).abs() < 1e-12);
+        }
         // Without shafts both see the mean transmittance.
         let flat = HazeSettings {
             shafts: false,
             sun_transmittance: 0.5,
             ..haze
         };
-        let a = sky_ray(&flat, 10.0, [0.9, 0.0, -0.436], f64::INFINITY, Some(&map));
-        let b = sky_ray(&flat, 10.0, [-0.9, 0.0, -0.436], f64::INFINITY, Some(&map));
+        let a = sky_ray(
+            &flat,
+            10.0,
+            [0.9, 0.0, -0.436],
+            f64::INFINITY,
+            HazeSun::PerSample(&map),
+        );
+        let b = sky_ray(
+            &flat,
+            10.0,
+            [-0.9, 0.0, -0.436],
+            f64::INFINITY,
+            HazeSun::PerSample(&map),
+        );
         assert!((a.front.radiance[1] - b.front.radiance[1]).abs() < 1e-9);
+    }
+
+    #[test]
+    fn shaft_factors_give_the_per_sample_shafts_where_clouds_do_not_split_the_haze() {
+        // Rays that cross the shadow line, read per sample and through the two factors. With as
+        // many shaft steps as march steps the factors are weighted means of the same samples,
+        // so wherever the clouds' distance does not fall among the haze samples of one altitude
+        // class (no cloud on the ray; a cloud just above the base) the radiance is the same.
+        // Stripes of shadow and light 5 km wide.
+        let map = column_shadow_map(|i| f64::from((i / 2) % 2));
+        let haze = HazeSettings {
+            extinction_per_m: 2e-4,
+            shaft_steps: 16,
+            ..HazeSettings::default()
+        };
+        let settings = MarchSettings::default();
+        let direction = [0.8, 0.1, -0.3];
+        let direction = scale(direction, 1.0 / dot(direction, direction).sqrt());
+        // Where this ray reaches the cloud base (1 km) from 10 m, with the planet's curvature.
+        let base_distance = (0..20_000)
+            .map(f64::from)
+            .find(|&t| {
+                altitude_along_ray(10.0, direction[1], t, settings.planet_radius_m) >= 1000.0
+            })
+            .unwrap();
+        let factors = shaft_factors(
+            &settings,
+            &haze,
+            10.0,
+            UP,
+            direction,
+            f64::INFINITY,
+            0.3,
+            &map,
+        );
+        assert!(factors.below > 0.05 && factors.below < 0.95, "{factors:?}");
+        assert_eq!(factors.split_altitude_m, 1000.0);
+        for split in [f64::INFINITY, base_distance] {
+            let march = |sun| {
+                march_haze(
+                    &settings,
+                    &haze,
+                    10.0,
+                    UP,
+                    direction,
+                    f64::INFINITY,
+                    split,
+                    0.3,
+                    sun,
+                )
+            };
+            let per_sample = march(HazeSun::PerSample(&map));
+            let shafts = march(HazeSun::Shafts(factors));
+            for (a, b) in [
+                (per_sample.front, shafts.front),
+                (per_sample.back, shafts.back),
+            ] {
+                for c in 0..3 {
+                    assert!(
+                        (a.radiance[c] - b.radiance[c]).abs() <= 1e-12 * a.radiance[c].max(1.0),
+                        "split {split}: {a:?} vs {b:?}"
+                    );
+                }
+                assert_eq!(a.transmittance, b.transmittance);
+            }
+        }
+        // The lit and shadowed air sit on the same ray: the factor lies strictly between.
+        let flat = march_haze(
+            &settings,
+            &haze,
+            10.0,
+            UP,
+            direction,
+            f64::INFINITY,
+            f64::INFINITY,
+            0.3,
+            HazeSun::Shafts(ShaftFactors {
+                below: 0.0,
+                ..factors
+            }),
+        );
+        let shafts = march_haze(
+            &settings,
+            &haze,
+            10.0,
+            UP,
+            direction,
+            f64::INFINITY,
+            f64::INFINITY,
+            0.3,
+            HazeSun::Shafts(factors),
+        );
+        assert!(shafts.front.radiance[1] > flat.front.radiance[1]);
     }
 
     #[test]
@@ -543,7 +831,15 @@ mod tests {
                             ..HazeSettings::default()
                         };
                         let r = march_haze(
-                            &settings, &haze, altitude, UP, direction, t_max, 3_000.0, 0.99, None,
+                            &settings,
+                            &haze,
+                            altitude,
+                            UP,
+                            direction,
+                            t_max,
+                            3_000.0,
+                            0.99,
+                            HazeSun::Mean,
                         );
                         for part in [r.front, r.back] {
                             assert!(

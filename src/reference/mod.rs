@@ -19,8 +19,11 @@
 //!   `blue_noise_jitter` in `clouds.wgsl`, reading the same values from a texture.
 //! - [`haze`]: haze from the visibility, marched along the view ray with light shafts from the
 //!   shadow map, and stacked with the clouds. GPU twin: `src/render/haze/haze.wgsl`.
+//! - [`composite`]: the depth-aware upsample of images rendered at a reduced resolution (the
+//!   march, the light-shaft factors). GPU twin: `src/render/composite/composite.wgsl`.
 
 pub mod blue_noise;
+pub mod composite;
 pub mod haze;
 pub mod noise;
 pub mod render;

@@ -6,10 +6,15 @@
 //!   [`CloudLayer`](crate::layers::CloudLayer)s, stops at scene geometry and composites the clouds
 //!   over the scene in HDR.
 //! - [`haze`]: the haze the forecast's visibility gives, marched in the same pass after the
-//!   clouds, with light shafts read from the cloud shadow map.
+//!   clouds, with light shafts: a pass at a reduced resolution reads the cloud shadow map along
+//!   each view ray first, and the march reads its factors back.
+//! - [`composite`]: the blend of the clouds onto the scene, and the depth-aware upsample of what
+//!   was rendered at a reduced resolution (the march at a `resolution_scale` below 1, the shaft
+//!   factors).
 //! - [`shadow`]: a compute pass that fills the cloud shadow map along the sun each frame, which
 //!   Bevy's PBR lighting applies to the sun's direct light on every `StandardMaterial`.
 
+pub mod composite;
 pub mod haze;
 pub mod march;
 pub mod noise;
@@ -85,10 +90,18 @@ pub struct VolumetricClouds {
     /// Steps of the haze march along each view ray (1–128; [`haze`]). Default 16 (`LOW` 8,
     /// `HIGH` 24, `ULTRA` 48). Costs nothing while [`haze::Haze`] is clear.
     pub haze_steps: u32,
-    /// Light shafts: the haze reads the sun's transmittance from the cloud shadow map at every
-    /// haze sample, so rays of light fall through the gaps in the clouds. Default true (`LOW`
-    /// false: the haze uses the clouds' mean shade instead).
+    /// Light shafts: the haze is lit through the cloud shadow map, so rays of light fall through
+    /// the gaps in the clouds. A pass at
+    /// [`VolumetricClouds::light_shaft_resolution_scale`] marches the haze along each view ray
+    /// reading the map, and the march takes the mean sunlit fraction from it ([`haze`]). Needs
+    /// [`shadow::CloudShadows`] on. Default true (`LOW` false: the haze uses the clouds' mean
+    /// shade instead).
     pub light_shafts: bool,
+    /// Fraction of the view's resolution the light-shaft pass runs at, per axis (0.125–1).
+    /// Shafts are soft, so a quarter of the resolution per axis (a sixteenth of the rays) keeps
+    /// them; a depth-aware upsample keeps them off the edges of near geometry. Default 0.25
+    /// (`ULTRA` 0.5).
+    pub light_shaft_resolution_scale: f32,
     /// From this distance along the view ray on, metres, cloud samples light-march only the first
     /// four shadow-map texels toward the sun, in at most two steps, and read the rest of the way
     /// from the cloud shadow map ([`shadow::CloudShadows`]; where the map covers them). That
@@ -139,6 +152,7 @@ impl VolumetricClouds {
         phase_blend: 0.2,
         haze_steps: 16,
         light_shafts: true,
+        light_shaft_resolution_scale: 0.25,
         sun_from_shadow_map_m: 5_000.0,
         min_step_m: 20.0,
     };
@@ -158,6 +172,7 @@ impl VolumetricClouds {
         light_steps: 12,
         transmittance_cutoff: 0.002,
         haze_steps: 48,
+        light_shaft_resolution_scale: 0.5,
         sun_from_shadow_map_m: f32::INFINITY,
         min_step_m: 5.0,
         ..Self::MEDIUM
@@ -173,6 +188,19 @@ impl VolumetricClouds {
             1.0
         } else {
             self.resolution_scale.clamp(0.25, 1.0)
+        }
+    }
+}
+
+impl VolumetricClouds {
+    /// [`VolumetricClouds::light_shaft_resolution_scale`] as the pass uses it: clamped to
+    /// 0.125–1, and 0.25 when not a number.
+    #[must_use]
+    pub fn effective_light_shaft_resolution_scale(&self) -> f32 {
+        if self.light_shaft_resolution_scale.is_nan() {
+            0.25
+        } else {
+            self.light_shaft_resolution_scale.clamp(0.125, 1.0)
         }
     }
 }

@@ -11,7 +11,7 @@
     mean_step_transmittance, shadow_map_uv, shadow_map_covers, sample_shadow_map,
 }
 
-// 32 bytes. Mirror in Rust: `GpuHazeUniforms` (`HazeSettings` is the f64 source).
+// 36 bytes. Mirror in Rust: `GpuHazeUniforms` (`HazeSettings` is the f64 source).
 struct HazeUniforms {
     // Extinction at the ground, 1/m; 0: no haze.
     extinction_per_m: f32,
@@ -22,12 +22,14 @@ struct HazeUniforms {
     asymmetry: f32,
     // Steps along the view ray.
     steps: u32,
-    // 1: read the sun's transmittance from the shadow map (light shafts); 0: use
+    // 1: the shaft pass ran and `march.wgsl` reads its factors (light shafts); 0: use
     // `sun_transmittance` everywhere.
     shafts: u32,
     sun_transmittance: f32,
     // The fraction of the sky's diffuse light the clouds let through to the haze.
     ambient_transmittance: f32,
+    // Steps of the shaft pass along the view ray.
+    shaft_steps: u32,
 }
 
 // The cloud shadow map and its frame are the clouds library's (binding 9, `clouds.shadow_map_*`).
@@ -44,37 +46,96 @@ struct HazeResult {
     back: vec4<f32>,
 }
 
-// The sun's transmittance through the clouds at `position_m` (relative to the camera).
-// Rust: `ShadowMapImage::ground_transmittance`, or `HazeSettings::sun_transmittance` without
-// shafts and beyond the map.
-fn sun_visibility(position_m: vec3<f32>) -> f32 {
-    if haze.shafts == 0u {
-        return haze.sun_transmittance;
-    }
-    // Beyond the map, the clouds' mean shade (Rust: `march_haze`).
-    let uv = shadow_map_uv(position_m);
-    if !shadow_map_covers(uv) {
-        return haze.sun_transmittance;
-    }
-    return sample_shadow_map(uv).r;
-}
-
-// Marches the haze along one view ray, split at the clouds' distance `split_m`.
-// Rust: `march_haze` (whose docs explain the arguments).
-fn march_haze(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, split_m: f32, jitter: f32) -> HazeResult {
-    var result = HazeResult(vec4<f32>(0.0, 0.0, 0.0, 1.0), vec4<f32>(0.0, 0.0, 0.0, 1.0));
-    if !(haze.extinction_per_m > 0.0) || !(haze.scale_height_m > 0.0) {
-        return result;
-    }
+// Where the view ray is inside the haze: [start, end] (end <= start: it misses).
+// Rust: `haze_interval`.
+fn haze_span(h: f32, mu: f32, t_max: f32) -> vec2<f32> {
     let radius = clouds.planet_radius_m;
-    let mu = clamp(dot(direction, up), -1.0, 1.0);
     let roots = intersect_altitude_sphere(h, mu, radius, HAZE_TOP_SCALE_HEIGHTS * haze.scale_height_m);
     if roots.y < 0.0 {
-        return result;
+        return vec2<f32>(0.0);
     }
-    let start = max(roots.x, 0.0);
-    let end = min(roots.y, min(t_max, ground_distance(h, mu, radius)));
-    if !(end - start > 0.0) {
+    return vec2<f32>(max(roots.x, 0.0), min(roots.y, min(t_max, ground_distance(h, mu, radius))));
+}
+
+// Where a view ray ends for the upsample of the shaft factors: the scene or the ground sphere,
+// whichever is nearer. Rust: `shaft_ray_end_m`.
+fn shaft_ray_end(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32) -> f32 {
+    let mu = clamp(dot(direction, up), -1.0, 1.0);
+    return min(t_max, ground_distance(h, mu, clouds.planet_radius_m));
+}
+
+// Whether there is haze to march. Rust: `HazeSettings::is_active`.
+fn haze_active() -> bool {
+    return haze.extinction_per_m > 0.0 && haze.scale_height_m > 0.0;
+}
+
+// Step k of the haze march over `span`: sample distance, altitude, optical depth and the
+// step integral `dt (1 - e^-x) / x * sigma` (before the transmittance from the camera).
+// Rust: `haze_steps`.
+struct HazeStep {
+    t: f32,
+    altitude: f32,
+    optical_depth: f32,
+    integral: f32,
+}
+
+fn haze_step(k: u32, n: f32, span: vec2<f32>, h: f32, mu: f32, jitter: f32) -> HazeStep {
+    let u0 = f32(k) / n;
+    let u1 = f32(k + 1u) / n;
+    let ta = span.x + (span.y - span.x) * u0 * u0;
+    let tb = span.x + (span.y - span.x) * u1 * u1;
+    let dt = tb - ta;
+    let t = ta + jitter * dt;
+    let altitude = altitude_along_ray(h, mu, t, clouds.planet_radius_m);
+    let sigma = haze.extinction_per_m * exp(-max(altitude, 0.0) / haze.scale_height_m);
+    let x = sigma * dt;
+    return HazeStep(t, altitude, x, dt * mean_step_transmittance(x) * sigma);
+}
+
+// The light shafts of one view ray: the mean sun transmittance from the cloud shadow map of the
+// haze below the lowest cloud base (x) and above it (y), weighted by each sample's share of the
+// pixel; the mean shade beyond the map and for a part the ray does not reach. Run by the
+// reduced-resolution shaft pass (`march.wgsl`'s `shafts` entry). Rust: `shaft_factors`.
+fn shaft_factors(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter: f32) -> vec2<f32> {
+    var lit = vec2<f32>(0.0);
+    var weight = vec2<f32>(0.0);
+    let mu = clamp(dot(direction, up), -1.0, 1.0);
+    let span = haze_span(h, mu, t_max);
+    if haze_active() && span.y - span.x > 0.0 {
+        let steps = clamp(haze.shaft_steps, 1u, MAX_HAZE_STEPS);
+        let n = f32(steps);
+        var depth = 0.0;
+        for (var k = 0u; k < steps; k++) {
+            let step = haze_step(k, n, span, h, mu, jitter);
+            let w = exp(-depth) * step.integral;
+            depth += step.optical_depth;
+            // Beyond the map, the clouds' mean shade.
+            var sun = haze.sun_transmittance;
+            let uv = shadow_map_uv(direction * step.t);
+            if shadow_map_covers(uv) {
+                sun = sample_shadow_map(uv).r;
+            }
+            if step.altitude < clouds.shadow_map_range_m.x {
+                lit.x += w * sun;
+                weight.x += w;
+            } else {
+                lit.y += w * sun;
+                weight.y += w;
+            }
+        }
+    }
+    let mean = vec2<f32>(haze.sun_transmittance);
+    return select(mean, clamp(lit / max(weight, vec2<f32>(1e-30)), vec2<f32>(0.0), vec2<f32>(1.0)), weight > vec2<f32>(0.0));
+}
+
+// Marches the haze along one view ray, split at the clouds' distance `split_m`. `shafts` holds
+// the ray's shaft factors below and above the lowest cloud base (both the mean shade without
+// shafts). Rust: `march_haze` (whose docs explain the arguments).
+fn march_haze(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, split_m: f32, jitter: f32, shafts: vec2<f32>) -> HazeResult {
+    var result = HazeResult(vec4<f32>(0.0, 0.0, 0.0, 1.0), vec4<f32>(0.0, 0.0, 0.0, 1.0));
+    let mu = clamp(dot(direction, up), -1.0, 1.0);
+    let span = haze_span(h, mu, t_max);
+    if !haze_active() || !(span.y - span.x > 0.0) {
         return result;
     }
     let cos_sun = clamp(dot(direction, clouds.sun_direction.xyz), -1.0, 1.0);
@@ -82,29 +143,21 @@ fn march_haze(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, split_m: 
     let ambient = 0.5 * (clouds.ambient_top.xyz + clouds.ambient_bottom.xyz) * haze.ambient_transmittance;
     let steps = clamp(haze.steps, 1u, MAX_HAZE_STEPS);
     let n = f32(steps);
-    let span = end - start;
     var radiance_front = vec3<f32>(0.0);
     var radiance_back = vec3<f32>(0.0);
     var depth_front = 0.0;
     var depth_back = 0.0;
     for (var k = 0u; k < steps; k++) {
-        let u0 = f32(k) / n;
-        let u1 = f32(k + 1u) / n;
-        let ta = start + span * u0 * u0;
-        let tb = start + span * u1 * u1;
-        let dt = tb - ta;
-        let t = ta + jitter * dt;
-        let altitude = altitude_along_ray(h, mu, t, radius);
-        let sigma = haze.extinction_per_m * exp(-max(altitude, 0.0) / haze.scale_height_m);
-        let x = sigma * dt;
-        let weight = exp(-(depth_front + depth_back)) * dt * mean_step_transmittance(x) * sigma * haze.albedo;
-        let source = sun * sun_visibility(direction * t) + ambient;
-        if t >= split_m {
+        let step = haze_step(k, n, span, h, mu, jitter);
+        let weight = exp(-(depth_front + depth_back)) * step.integral * haze.albedo;
+        let visible = select(shafts.y, shafts.x, step.altitude < clouds.shadow_map_range_m.x);
+        let source = sun * visible + ambient;
+        if step.t >= split_m {
             radiance_back += weight * source;
-            depth_back += x;
+            depth_back += step.optical_depth;
         } else {
             radiance_front += weight * source;
-            depth_front += x;
+            depth_front += step.optical_depth;
         }
     }
     let front_t = exp(-depth_front);

@@ -1,15 +1,23 @@
 // Entry shader of the cloud march: one fullscreen triangle per view. It builds each pixel's view
 // ray, ends it at scene geometry from the depth prepass, and calls `march_clouds` from the
-// `bevy_cloudscape::clouds` library (bindings 2-7 live there) and `march_haze` from
-// `bevy_cloudscape::haze` (bindings 8-9). The output (L, T) is blended as
+// `bevy_cloudscape::clouds` library (bindings 2-7, 9 and 10 live there) and `march_haze` from
+// `bevy_cloudscape::haze` (binding 8). The output (L, T) is blended as
 // `scene * T + L` by the pipeline's blend state. With LOW_RES it runs at a reduced resolution
-// into its own targets instead, and `upsample.wgsl` composites. Rust side:
-// `src/render/march/mod.rs`.
+// into its own targets instead, and `composite/upsample.wgsl` composites.
+//
+// A second entry, `shafts`, is the light-shaft pass: it runs first, at a reduced resolution,
+// and writes each ray's shaft factors (`shaft_factors` in `haze.wgsl`) and the distance its ray
+// was stopped at; `fragment` reads them back at binding 11 with the depth-aware upsample's
+// weights. Rust side: `src/render/march/mod.rs`.
 
 #import bevy_render::view::View
 #import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
 #import bevy_cloudscape::clouds::{clouds, march_clouds, ray_start_jitter, FAR_AWAY}
-#import bevy_cloudscape::haze::{march_haze, composite_haze}
+#import bevy_cloudscape::haze::{march_haze, composite_haze, shaft_factors, shaft_ray_end, haze}
+#import bevy_cloudscape::composite::{
+    MIN_WEIGHT_SUM, depth_weight, footprint, footprint_texel,
+    footprint_weight,
+}
 
 @group(0) @binding(0) var<uniform> view: View;
 #ifdef MULTISAMPLED
@@ -17,6 +25,11 @@
 #else
 @group(0) @binding(1) var depth_prepass: texture_depth_2d;
 #endif
+
+// The shaft pass's output (x: factor below the lowest cloud base, y: above, z: where the ray
+// was stopped, m); a 1x1 stand-in when the view has no shafts (`haze.shafts` is then 0) and
+// while the shaft pass itself runs.
+@group(0) @binding(11) var shaft_texture: texture_2d<f32>;
 
 #ifdef LOW_RES
 // At a reduced resolution the pass writes (L, T) and, for the depth-aware upsample
@@ -27,23 +40,18 @@ struct MarchOutput {
 }
 #endif
 
-#ifdef LOW_RES
-@fragment
-fn fragment(in: FullscreenVertexOutput) -> MarchOutput {
-    // This pixel's centre falls on one full-resolution pixel; the ray ends at its depth.
-    let full_pixel = min(in.uv * view.viewport.zw, view.viewport.zw - 1.0);
-    let depth = textureLoad(depth_prepass, vec2<i32>(full_pixel), 0);
-#else
-@fragment
-fn fragment(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
-    let depth = textureLoad(depth_prepass, vec2<i32>(in.position.xy), 0);
-#endif
-    let pixel = in.position.xy;
+// The view ray through the fullscreen triangle's `uv`, and where it ends (the scene's depth, or
+// FAR_AWAY for the sky).
+struct ViewRay {
+    direction: vec3<f32>,
+    t_max: f32,
+}
+
+fn view_ray(uv: vec2<f32>, depth: f32) -> ViewRay {
     // Bevy's reverse-Z puts the near plane at NDC depth 1; the far plane is at infinity.
-    let ndc = vec2<f32>(in.uv.x * 2.0 - 1.0, 1.0 - in.uv.y * 2.0);
+    let ndc = vec2<f32>(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0);
     let near_world = view.world_from_clip * vec4<f32>(ndc, 1.0, 1.0);
     let direction = normalize(near_world.xyz / near_world.w - view.world_position);
-
     // Depth 0 is the sky: march to infinity. Otherwise the ray ends at the surface, whose
     // distance is the length of its view-space position.
     var t_max = FAR_AWAY;
@@ -51,11 +59,77 @@ fn fragment(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
         let surface_view = view.view_from_clip * vec4<f32>(ndc, depth, 1.0);
         t_max = length(surface_view.xyz / surface_view.w);
     }
+    return ViewRay(direction, t_max);
+}
+
+// The depth at the full-resolution pixel under a reduced-resolution pixel's centre.
+fn depth_under(uv: vec2<f32>) -> f32 {
+    let full_pixel = min(uv * view.viewport.zw, view.viewport.zw - 1.0);
+    return textureLoad(depth_prepass, vec2<i32>(full_pixel), 0);
+}
+
+// The light-shaft pass (reduced resolution): the ray's shaft factors and its end.
+@fragment
+fn shafts(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
+    let ray = view_ray(in.uv, depth_under(in.uv));
+    let jitter = ray_start_jitter(in.position.xy);
+    let h = clouds.camera_altitude_m;
+    let up = clouds.camera_up.xyz;
+    let factors = shaft_factors(h, up, ray.direction, ray.t_max, jitter);
+    return vec4<f32>(factors, shaft_ray_end(h, up, ray.direction, ray.t_max), 0.0);
+}
+
+// This pixel's shaft factors: the shaft pass's texels around `uv`, weighted for the distance
+// their rays were stopped at (`distance`: `shaft_ray_end`) like the upsample (Rust:
+// `reference::composite::upsample`). The clouds' mean shade without shafts.
+fn upsampled_shafts(uv: vec2<f32>, distance: f32) -> vec2<f32> {
+    if haze.shafts == 0u {
+        return vec2<f32>(haze.sun_transmittance);
+    }
+    let size = vec2<i32>(textureDimensions(shaft_texture));
+    let f = footprint(uv, size);
+    var sum = vec2<f32>(0.0);
+    var weight_sum = 0.0;
+    var nearest = vec2<f32>(haze.sun_transmittance);
+    var nearest_gap = FAR_AWAY;
+    for (var k = 0; k < 4; k++) {
+        let tap = textureLoad(shaft_texture, footprint_texel(f, k, size), 0);
+        let weight = footprint_weight(f, k) * depth_weight(tap.z, distance);
+        sum += weight * tap.xy;
+        weight_sum += weight;
+        let gap = abs(tap.z - distance);
+        if gap < nearest_gap {
+            nearest_gap = gap;
+            nearest = tap.xy;
+        }
+    }
+    if weight_sum < MIN_WEIGHT_SUM {
+        return nearest;
+    }
+    return sum / weight_sum;
+}
+
+#ifdef LOW_RES
+@fragment
+fn fragment(in: FullscreenVertexOutput) -> MarchOutput {
+    // This pixel's centre falls on one full-resolution pixel; the ray ends at its depth.
+    let depth = depth_under(in.uv);
+#else
+@fragment
+fn fragment(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
+    let depth = textureLoad(depth_prepass, vec2<i32>(in.position.xy), 0);
+#endif
+    let pixel = in.position.xy;
+    let ray = view_ray(in.uv, depth);
+    let direction = ray.direction;
+    let t_max = ray.t_max;
 
     // The clouds, then the haze in front of and behind them (`haze.wgsl`).
     let jitter = ray_start_jitter(pixel);
     let cloud = march_clouds(clouds.camera_altitude_m, clouds.camera_up.xyz, direction, t_max, jitter);
-    let hazy = march_haze(clouds.camera_altitude_m, clouds.camera_up.xyz, direction, t_max, cloud.distance, jitter);
+    let up = clouds.camera_up.xyz;
+    let shafts = upsampled_shafts(in.uv, shaft_ray_end(clouds.camera_altitude_m, up, direction, t_max));
+    let hazy = march_haze(clouds.camera_altitude_m, clouds.camera_up.xyz, direction, t_max, cloud.distance, jitter, shafts);
     let result = composite_haze(hazy, cloud.colour);
 #ifdef LOW_RES
     return MarchOutput(vec4<f32>(result.rgb * view.exposure, result.a), vec4<f32>(t_max));

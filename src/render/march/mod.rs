@@ -7,22 +7,29 @@
 //! the sun and multiple-scattering octaves, and integrates with Hillaire's energy-conserving
 //! step. Then `march_haze` (`haze.wgsl`, see [`crate::render::haze`]) marches the haze along the
 //! same ray and stacks it in front of and behind the clouds. The result `(L, T)` is blended onto
-//! the HDR main texture as `scene · T + L`, before tonemapping. The algorithm and its sources are documented in [`crate::reference::render`],
-//! the f64 CPU twin the GPU output is tested against.
+//! the HDR main texture as `scene · T + L`, before tonemapping ([`crate::render::composite`]).
+//! The algorithm and its sources are documented in [`crate::reference::render`], the f64 CPU
+//! twin the GPU output is tested against.
 //!
 //! # What a frame costs
 //!
 //! Layers with zero coverage or density are not sent to the GPU; with no visible layer and no
-//! haze the pass does not run at all ([`CloudPassStats`] counts the views it marched). The pass runs after the
-//! main (opaque and transparent) passes and before post-processing, like Bevy's volumetric fog;
-//! transparent objects are therefore covered by clouds in front of the opaque depth behind them.
+//! haze the pass does not run at all ([`CloudPassStats`] counts the views it marched). The pass
+//! runs after the main (opaque and transparent) passes and before post-processing, like Bevy's
+//! volumetric fog; transparent objects are therefore covered by clouds in front of the opaque
+//! depth behind them.
 //!
 //! At [`VolumetricClouds::resolution_scale`] below 1 the march renders `(L, T)` and the
-//! distance each ray stopped at into targets of the reduced size, and `upsample.wgsl` composites
-//! them: each full-resolution pixel blends its four nearest low-resolution texels with bilinear
-//! weights times `e^(−|d − dᵢ| / (0.05 · min(d, dᵢ)))`, so texels whose rays stopped at other
-//! geometry (the sky beside a hill, a hill in front of the sky) barely count.
-//! ([`CloudPassStats::views_upsampled`] counts these views.)
+//! distance each ray stopped at into targets of the reduced size, and the depth-aware upsample
+//! of [`crate::render::composite`] composites them ([`CloudPassStats::views_upsampled`]
+//! counts these views).
+//!
+//! With light shafts, a second entry of the same shader (`shafts`, same bindings) runs first at
+//! [`VolumetricClouds::light_shaft_resolution_scale`]: it marches the haze along each ray,
+//! reads the cloud shadow map at every sample and writes the ray's two shaft factors
+//! ([`crate::reference::haze::ShaftFactors`]) and its end distance. The march reads them back at
+//! binding 11 with the upsample's weights, so the full-resolution haze reads no shadow map
+//! ([`CloudPassStats::views_with_shafts`] counts these views).
 //!
 //! # Inputs, from one source
 //!
@@ -52,14 +59,13 @@ use bevy::{
         render_asset::RenderAssets,
         render_resource::{
             binding_types::{
-                sampler, storage_buffer_read_only, texture_2d, texture_3d, texture_depth_2d,
-                texture_depth_2d_multisampled, uniform_buffer,
+                sampler, storage_buffer_read_only, texture_2d, texture_3d, uniform_buffer,
             },
             *,
         },
         renderer::{RenderAdapter, RenderContext, RenderDevice, RenderQueue, ViewQuery},
         sync_world::RenderEntity,
-        texture::{CachedTexture, FallbackImage, GpuImage, TextureCache},
+        texture::{FallbackImage, GpuImage},
         view::{ViewTarget, ViewUniform, ViewUniformOffset, ViewUniforms},
     },
     shader::load_shader_library,
@@ -67,6 +73,11 @@ use bevy::{
 
 use super::{
     VolumetricClouds,
+    composite::{
+        COMPOSITE_BLEND, CloudLowResTargets, CloudShaftTarget, CloudUpsamplePipeline,
+        LOW_RES_COLOUR_FORMAT, LOW_RES_DISTANCE_FORMAT, SHAFT_FORMAT, depth_binding,
+        init_cloud_upsample_pipeline, load_composite_shaders, prepare_low_res_targets,
+    },
     haze::{CloudShadowFrame, GpuHazeUniforms, Haze, haze_settings, load_haze_shader},
     noise::CloudNoiseTextures,
 };
@@ -104,8 +115,8 @@ impl Plugin for CloudMarchPlugin {
         }
         load_shader_library!(app, "clouds.wgsl");
         load_haze_shader(app);
+        load_composite_shaders(app);
         embedded_asset!(app, "march.wgsl");
-        embedded_asset!(app, "upsample.wgsl");
         app.sub_app_mut(RenderApp)
             .init_resource::<CloudPassStats>()
             .add_systems(ExtractSchedule, extract_cloud_views);
@@ -131,7 +142,10 @@ impl Plugin for CloudMarchPlugin {
         render_app
             .init_resource::<SpecializedRenderPipelines<CloudMarchPipeline>>()
             .init_resource::<SpecializedRenderPipelines<CloudUpsamplePipeline>>()
-            .add_systems(RenderStartup, init_cloud_march_pipeline)
+            .add_systems(
+                RenderStartup,
+                (init_cloud_march_pipeline, init_cloud_upsample_pipeline),
+            )
             .add_systems(
                 Render,
                 (
@@ -613,6 +627,9 @@ pub struct ExtractedCloudView {
     pub resolution_scale: f32,
     /// The haze along the view's rays.
     pub haze: HazeSettings,
+    /// [`VolumetricClouds::effective_light_shaft_resolution_scale`] when the view draws light
+    /// shafts (haze, and [`VolumetricClouds::light_shafts`] on); `None` otherwise.
+    pub shaft_resolution_scale: Option<f32>,
     /// World position of the camera, m (places the cloud shadow map for the light shafts).
     pub camera_m: DVec3,
 }
@@ -624,6 +641,8 @@ pub struct CloudPassStats {
     pub views_marched: u64,
     /// Of those, views marched at a reduced resolution and upsampled.
     pub views_upsampled: u64,
+    /// Of those, views whose light shafts ran (the reduced-resolution shaft pass).
+    pub views_with_shafts: u64,
 }
 
 fn extract_cloud_views(
@@ -675,6 +694,8 @@ fn extract_cloud_views(
             settings: march,
             layers: march_layers,
             resolution_scale: settings.effective_resolution_scale(),
+            shaft_resolution_scale: (haze.shafts && haze.is_active())
+                .then(|| settings.effective_light_shaft_resolution_scale()),
             haze,
             camera_m: transform.translation().as_dvec3(),
         });
@@ -689,6 +710,8 @@ struct CloudViewBuffers {
     haze: UniformBuffer<GpuHazeUniforms>,
     /// The shadow map the haze reads, if it reads one.
     shadow_map: Option<AssetId<Image>>,
+    /// Whether the shaft pass runs (light shafts on, haze, and a shadow map to read).
+    shafts: bool,
 }
 
 fn prepare_cloud_view_buffers(
@@ -722,7 +745,8 @@ fn prepare_cloud_view_buffers(
         let mut layers = StorageBuffer::from(gpu_layers);
         layers.set_label(Some("cloud_march_layers"));
         layers.write_buffer(&device, &queue);
-        let mut haze = UniformBuffer::from(GpuHazeUniforms::new(&view.haze, map.is_some()));
+        let shafts = view.shaft_resolution_scale.is_some() && map.is_some();
+        let mut haze = UniformBuffer::from(GpuHazeUniforms::new(&view.haze, shafts));
         haze.set_label(Some("cloud_haze_uniforms"));
         haze.write_buffer(&device, &queue);
         commands.entity(entity).insert(CloudViewBuffers {
@@ -730,6 +754,7 @@ fn prepare_cloud_view_buffers(
             layers,
             haze,
             shadow_map: map.map(|m| m.image),
+            shafts,
         });
     }
 }
@@ -755,19 +780,9 @@ pub struct CloudMarchPipelineKey {
     /// March into the reduced-resolution targets ([`LOW_RES_COLOUR_FORMAT`],
     /// [`LOW_RES_DISTANCE_FORMAT`]) for the upsample, instead of blending onto the view.
     pub low_res: bool,
-}
-
-/// Format of the reduced-resolution `(L, T)` target.
-pub const LOW_RES_COLOUR_FORMAT: TextureFormat = TextureFormat::Rgba16Float;
-/// Format of the reduced-resolution target of ray-end distances (metres).
-pub const LOW_RES_DISTANCE_FORMAT: TextureFormat = TextureFormat::R32Float;
-
-fn depth_binding(multisampled: bool) -> BindGroupLayoutEntryBuilder {
-    if multisampled {
-        texture_depth_2d_multisampled()
-    } else {
-        texture_depth_2d()
-    }
+    /// The light-shaft pass (entry `shafts`, into a [`SHAFT_FORMAT`] target) instead of the
+    /// march.
+    pub shafts: bool,
 }
 
 fn march_layout(label: &'static str, multisampled: bool) -> BindGroupLayoutDescriptor {
@@ -786,20 +801,6 @@ fn march_layout(label: &'static str, multisampled: bool) -> BindGroupLayoutDescr
                 sampler(SamplerBindingType::Filtering),
                 uniform_buffer::<GpuHazeUniforms>(false),
                 texture_2d(TextureSampleType::Float { filterable: true }),
-                texture_2d(TextureSampleType::Float { filterable: false }),
-            ),
-        ),
-    )
-}
-
-fn upsample_layout(label: &'static str, multisampled: bool) -> BindGroupLayoutDescriptor {
-    BindGroupLayoutDescriptor::new(
-        label,
-        &BindGroupLayoutEntries::sequential(
-            ShaderStages::FRAGMENT,
-            (
-                uniform_buffer::<ViewUniform>(true),
-                depth_binding(multisampled),
                 texture_2d(TextureSampleType::Float { filterable: false }),
                 texture_2d(TextureSampleType::Float { filterable: false }),
             ),
@@ -846,27 +847,7 @@ fn init_cloud_march_pipeline(
         shader: load_embedded_asset!(asset_server.as_ref(), "march.wgsl"),
         blue_noise,
     });
-    commands.insert_resource(CloudUpsamplePipeline {
-        layout: upsample_layout("cloud_upsample_layout", false),
-        layout_multisampled: upsample_layout("cloud_upsample_layout_multisampled", true),
-        fullscreen: fullscreen.clone(),
-        shader: load_embedded_asset!(asset_server.as_ref(), "upsample.wgsl"),
-    });
 }
-
-/// `scene · T + L`: the fragment returns `(L, T)`.
-const COMPOSITE_BLEND: BlendState = BlendState {
-    color: BlendComponent {
-        src_factor: BlendFactor::One,
-        dst_factor: BlendFactor::SrcAlpha,
-        operation: BlendOperation::Add,
-    },
-    alpha: BlendComponent {
-        src_factor: BlendFactor::Zero,
-        dst_factor: BlendFactor::One,
-        operation: BlendOperation::Add,
-    },
-};
 
 impl SpecializedRenderPipeline for CloudMarchPipeline {
     type Key = CloudMarchPipelineKey;
@@ -877,83 +858,52 @@ impl SpecializedRenderPipeline for CloudMarchPipeline {
         if multisampled {
             shader_defs.push("MULTISAMPLED".into());
         }
-        let targets = if key.low_res {
+        let (entry, targets) = if key.shafts {
+            ("shafts", vec![Some(ColorTargetState::from(SHAFT_FORMAT))])
+        } else if key.low_res {
             shader_defs.push("LOW_RES".into());
-            vec![
-                Some(ColorTargetState::from(LOW_RES_COLOUR_FORMAT)),
-                Some(ColorTargetState::from(LOW_RES_DISTANCE_FORMAT)),
-            ]
+            (
+                "fragment",
+                vec![
+                    Some(ColorTargetState::from(LOW_RES_COLOUR_FORMAT)),
+                    Some(ColorTargetState::from(LOW_RES_DISTANCE_FORMAT)),
+                ],
+            )
         } else {
-            vec![Some(ColorTargetState {
-                format: key.format,
-                blend: Some(COMPOSITE_BLEND),
-                write_mask: ColorWrites::ALL,
-            })]
-        };
-        RenderPipelineDescriptor {
-            label: Some(Cow::Borrowed("cloud_march_pipeline")),
-            layout: vec![if multisampled {
-                self.layout_multisampled.clone()
-            } else {
-                self.layout.clone()
-            }],
-            vertex: self.fullscreen.to_vertex_state(),
-            fragment: Some(FragmentState {
-                shader: self.shader.clone(),
-                shader_defs,
-                entry_point: Some(Cow::Borrowed("fragment")),
-                targets,
-            }),
-            multisample: MultisampleState {
-                // The reduced-resolution targets are single-sampled.
-                count: if key.low_res { 1 } else { key.samples },
-                ..default()
-            },
-            ..default()
-        }
-    }
-}
-
-/// Layouts and shader of the depth-aware upsample that composites a reduced-resolution march.
-#[derive(Resource)]
-pub struct CloudUpsamplePipeline {
-    layout: BindGroupLayoutDescriptor,
-    layout_multisampled: BindGroupLayoutDescriptor,
-    fullscreen: FullscreenShader,
-    shader: Handle<Shader>,
-}
-
-impl SpecializedRenderPipeline for CloudUpsamplePipeline {
-    /// The view's main-texture format and sample count (`low_res` unused).
-    type Key = CloudMarchPipelineKey;
-
-    fn specialize(&self, key: Self::Key) -> RenderPipelineDescriptor {
-        let multisampled = key.samples > 1;
-        let shader_defs = if multisampled {
-            vec!["MULTISAMPLED".into()]
-        } else {
-            Vec::new()
-        };
-        RenderPipelineDescriptor {
-            label: Some(Cow::Borrowed("cloud_upsample_pipeline")),
-            layout: vec![if multisampled {
-                self.layout_multisampled.clone()
-            } else {
-                self.layout.clone()
-            }],
-            vertex: self.fullscreen.to_vertex_state(),
-            fragment: Some(FragmentState {
-                shader: self.shader.clone(),
-                shader_defs,
-                entry_point: Some(Cow::Borrowed("fragment")),
-                targets: vec![Some(ColorTargetState {
+            (
+                "fragment",
+                vec![Some(ColorTargetState {
                     format: key.format,
                     blend: Some(COMPOSITE_BLEND),
                     write_mask: ColorWrites::ALL,
                 })],
+            )
+        };
+        RenderPipelineDescriptor {
+            label: Some(Cow::Borrowed(if key.shafts {
+                "cloud_shaft_pipeline"
+            } else {
+                "cloud_march_pipeline"
+            })),
+            layout: vec![if multisampled {
+                self.layout_multisampled.clone()
+            } else {
+                self.layout.clone()
+            }],
+            vertex: self.fullscreen.to_vertex_state(),
+            fragment: Some(FragmentState {
+                shader: self.shader.clone(),
+                shader_defs,
+                entry_point: Some(Cow::Borrowed(entry)),
+                targets,
             }),
             multisample: MultisampleState {
-                count: key.samples,
+                // The reduced-resolution targets are single-sampled.
+                count: if key.low_res || key.shafts {
+                    1
+                } else {
+                    key.samples
+                },
                 ..default()
             },
             ..default()
@@ -961,14 +911,16 @@ impl SpecializedRenderPipeline for CloudUpsamplePipeline {
     }
 }
 
-/// The specialised pipelines of a view: the march, and the upsample when the view marches at a
-/// reduced resolution.
+/// The specialised pipelines of a view: the march, the upsample when the view marches at a
+/// reduced resolution, and the shaft pass when it draws light shafts.
 #[derive(Component)]
 pub struct CloudMarchPipelineId {
     /// The march.
     pub march: CachedRenderPipelineId,
     /// The upsample, for a reduced resolution.
     pub upsample: Option<CachedRenderPipelineId>,
+    /// The light-shaft pass.
+    pub shafts: Option<CachedRenderPipelineId>,
 }
 
 fn prepare_cloud_march_pipelines(
@@ -988,69 +940,25 @@ fn prepare_cloud_march_pipelines(
             format: target.main_texture_format(),
             samples: msaa.samples(),
             low_res: view.resolution_scale < 1.0,
+            shafts: false,
         };
         let march = pipelines.specialize(&pipeline_cache, &pipeline, key);
         let upsample = key
             .low_res
             .then(|| upsample_pipelines.specialize(&pipeline_cache, &upsample, key));
-        commands
-            .entity(entity)
-            .insert(CloudMarchPipelineId { march, upsample });
-    }
-}
-
-/// The reduced-resolution targets of a view that marches below full resolution.
-#[derive(Component)]
-pub struct CloudLowResTargets {
-    /// `(L, T)`, [`LOW_RES_COLOUR_FORMAT`].
-    pub colour: CachedTexture,
-    /// Where each ray was stopped, metres ([`LOW_RES_DISTANCE_FORMAT`]).
-    pub distance: CachedTexture,
-}
-
-/// Size of the reduced-resolution march for a view of `size` pixels at `scale`: each side
-/// rounded up, at least 1.
-pub fn low_res_size(size: UVec2, scale: f32) -> UVec2 {
-    (size.as_vec2() * scale).ceil().as_uvec2().max(UVec2::ONE)
-}
-
-fn prepare_low_res_targets(
-    mut commands: Commands,
-    mut cache: ResMut<TextureCache>,
-    device: Res<RenderDevice>,
-    views: Query<(Entity, &ViewTarget, &ExtractedCloudView)>,
-) {
-    for (entity, target, view) in &views {
-        if view.resolution_scale >= 1.0 {
-            commands.entity(entity).remove::<CloudLowResTargets>();
-            continue;
-        }
-        let full = target.main_texture().size();
-        let size = low_res_size(UVec2::new(full.width, full.height), view.resolution_scale);
-        let mut texture = |label: &'static str, format: TextureFormat| {
-            cache.get(
-                &device,
-                TextureDescriptor {
-                    label: Some(label),
-                    size: Extent3d {
-                        width: size.x,
-                        height: size.y,
-                        depth_or_array_layers: 1,
-                    },
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: TextureDimension::D2,
-                    format,
-                    usage: TextureUsages::RENDER_ATTACHMENT | TextureUsages::TEXTURE_BINDING,
-                    view_formats: &[],
-                },
-            )
-        };
-        let colour = texture("cloud_low_res_colour", LOW_RES_COLOUR_FORMAT);
-        let distance = texture("cloud_low_res_distance", LOW_RES_DISTANCE_FORMAT);
-        commands
-            .entity(entity)
-            .insert(CloudLowResTargets { colour, distance });
+        let shafts = view.shaft_resolution_scale.is_some().then(|| {
+            let key = CloudMarchPipelineKey {
+                low_res: false,
+                shafts: true,
+                ..key
+            };
+            pipelines.specialize(&pipeline_cache, &pipeline, key)
+        });
+        commands.entity(entity).insert(CloudMarchPipelineId {
+            march,
+            upsample,
+            shafts,
+        });
     }
 }
 
@@ -1062,6 +970,7 @@ type MarchViewQuery = (
     &'static CloudMarchPipelineId,
     &'static Msaa,
     Option<&'static CloudLowResTargets>,
+    Option<&'static CloudShaftTarget>,
 );
 
 fn march_cloud_layers(
@@ -1076,7 +985,7 @@ fn march_cloud_layers(
     mut stats: ResMut<CloudPassStats>,
     mut ctx: RenderContext,
 ) {
-    let (target, prepass, view_offset, buffers, pipeline_ids, msaa, low_res): QueryItem<
+    let (target, prepass, view_offset, buffers, pipeline_ids, msaa, low_res, shaft_target): QueryItem<
         MarchViewQuery,
     > = view.into_inner();
     let (Some(pipeline), Some(noise), Some(view_binding), Some(depth), Some(render_pipeline)) = (
@@ -1114,29 +1023,53 @@ fn march_cloud_layers(
         // The targets or pipeline of a changed scale are not ready yet.
         _ => return,
     };
+    // The light-shaft pass: its target and pipeline. The uniforms promise the march its
+    // factors, so without them (not ready yet) the frame waits.
+    let shafts = if buffers.shafts {
+        let (Some(shaft_target), Some(id)) = (shaft_target, pipeline_ids.shafts) else {
+            return;
+        };
+        let Some(shaft_pipeline) = pipeline_cache.get_render_pipeline(id) else {
+            return;
+        };
+        Some((shaft_target, shaft_pipeline))
+    } else {
+        None
+    };
     let multisampled = msaa.samples() > 1;
     let layout = if multisampled {
         &pipeline.layout_multisampled
     } else {
         &pipeline.layout
     };
-    let bind_group = ctx.render_device().create_bind_group(
+    // Binding 11 is the shaft pass's output for the march, and a stand-in for the shaft pass
+    // itself (a texture may not be read and written in one pass).
+    let march_bind_group = |label: &'static str, shaft_view: &TextureView| {
+        ctx.render_device().create_bind_group(
+            label,
+            &pipeline_cache.get_bind_group_layout(layout),
+            &BindGroupEntries::sequential((
+                view_binding.clone(),
+                depth,
+                uniforms.clone(),
+                layers.clone(),
+                &noise.base.view,
+                &noise.detail.view,
+                &noise.weather.view,
+                &noise.sampler,
+                haze.clone(),
+                shadow_map,
+                &pipeline.blue_noise,
+                shaft_view,
+            )),
+        )
+    };
+    let stand_in = &fallback.d2.texture_view;
+    let bind_group = march_bind_group(
         "cloud_march_bind_group",
-        &pipeline_cache.get_bind_group_layout(layout),
-        &BindGroupEntries::sequential((
-            view_binding.clone(),
-            depth,
-            uniforms,
-            layers,
-            &noise.base.view,
-            &noise.detail.view,
-            &noise.weather.view,
-            &noise.sampler,
-            haze,
-            shadow_map,
-            &pipeline.blue_noise,
-        )),
+        shafts.map_or(stand_in, |(target, _)| &target.factors.default_view),
     );
+    let shaft_bind_group = shafts.map(|_| march_bind_group("cloud_shaft_bind_group", stand_in));
     let upsample_bind_group = upsample.as_ref().map(|(targets, upsample, _)| {
         let layout = if multisampled {
             &upsample.layout_multisampled
@@ -1169,6 +1102,27 @@ fn march_cloud_layers(
                 store: StoreOp::Store,
             },
         }
+    }
+    if let (Some((shaft_target, shaft_pipeline)), Some(shaft_bind_group)) =
+        (shafts, &shaft_bind_group)
+    {
+        let mut pass = ctx
+            .command_encoder()
+            .begin_render_pass(&RenderPassDescriptor {
+                label: Some("cloud_shafts"),
+                color_attachments: &[Some(clear(
+                    &shaft_target.factors.default_view,
+                    LinearRgba::NONE,
+                ))],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+        pass.set_pipeline(shaft_pipeline);
+        pass.set_bind_group(0, shaft_bind_group, &[view_offset.offset]);
+        pass.draw(0..3, 0..1);
+        stats.views_with_shafts += 1;
     }
     {
         let attachments = match &upsample {

@@ -1,13 +1,16 @@
 // Depth-aware upsample of a reduced-resolution cloud march (march.wgsl with LOW_RES): each
 // full-resolution pixel blends the four nearest low-resolution (L, T) texels with bilinear
-// weights times a weight for how close the distance each texel's ray was stopped at is to this
-// pixel's own distance. A pixel of near geometry therefore takes only texels that were stopped at
-// similar geometry, and cloud in front of the sky does not bleed over a hill's edge. The output
-// is blended as `scene * T + L`, like the full-resolution march. Rust side:
-// `src/render/march/mod.rs`.
+// weights times `depth_weight` (`composite.wgsl`), so a pixel of near geometry takes only texels
+// that were stopped at similar geometry, and cloud in front of the sky does not bleed over a
+// hill's edge. The output is blended as `scene * T + L`, like the full-resolution march.
+// CPU twin: `upsample` in `src/reference/composite.rs`. Rust side:
+// `src/render/composite/mod.rs`.
 
 #import bevy_render::view::View
 #import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
+#import bevy_cloudscape::composite::{
+    FAR_AWAY, MIN_WEIGHT_SUM, depth_weight, footprint, footprint_texel, footprint_weight,
+}
 
 @group(0) @binding(0) var<uniform> view: View;
 #ifdef MULTISAMPLED
@@ -17,11 +20,6 @@
 #endif
 @group(0) @binding(2) var low_colour: texture_2d<f32>;
 @group(0) @binding(3) var low_distance: texture_2d<f32>;
-
-// "The sky": the distance march.wgsl writes for depth 0 (bevy_cloudscape::clouds::FAR_AWAY).
-const FAR_AWAY: f32 = 3.0e38;
-// Distances within this fraction of each other count as the same surface (weight e^-1).
-const DEPTH_TOLERANCE: f32 = 0.05;
 
 fn surface_distance(in: FullscreenVertexOutput) -> f32 {
     let depth = textureLoad(depth_prepass, vec2<i32>(in.position.xy), 0);
@@ -37,32 +35,26 @@ fn surface_distance(in: FullscreenVertexOutput) -> f32 {
 fn fragment(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
     let distance = surface_distance(in);
     let size = vec2<i32>(textureDimensions(low_colour));
-    let position = in.uv * vec2<f32>(size) - 0.5;
-    let base = floor(position);
-    let fraction = position - base;
+    let f = footprint(in.uv, size);
     var sum = vec4<f32>(0.0);
     var weight_sum = 0.0;
     var nearest = vec4<f32>(0.0, 0.0, 0.0, 1.0);
     var nearest_gap = FAR_AWAY;
     for (var k = 0; k < 4; k++) {
-        let offset = vec2<i32>(k & 1, k >> 1);
-        let texel = clamp(vec2<i32>(base) + offset, vec2<i32>(0), size - 1);
+        let texel = footprint_texel(f, k, size);
         let colour = textureLoad(low_colour, texel, 0);
         let tap_distance = textureLoad(low_distance, texel, 0).x;
-        let bilinear = select(1.0 - fraction.x, fraction.x, offset.x == 1)
-            * select(1.0 - fraction.y, fraction.y, offset.y == 1);
-        let gap = abs(tap_distance - distance);
-        let scale = DEPTH_TOLERANCE * max(min(tap_distance, distance), 1e-3);
-        let weight = bilinear * exp(-gap / scale);
+        let weight = footprint_weight(f, k) * depth_weight(tap_distance, distance);
         sum += weight * colour;
         weight_sum += weight;
+        let gap = abs(tap_distance - distance);
         if gap < nearest_gap {
             nearest_gap = gap;
             nearest = colour;
         }
     }
     // No tap saw this pixel's surface (a thin object between texels): take the closest in depth.
-    if weight_sum < 1e-4 {
+    if weight_sum < MIN_WEIGHT_SUM {
         return nearest;
     }
     return sum / weight_sum;
