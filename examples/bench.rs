@@ -14,7 +14,10 @@
 //! - `bench.csv`: `scene,preset,width,height,ms_per_frame,ref_ms_per_frame,rel_rmse,max_abs_err,nan_count`.
 //!   `ms_per_frame` is the cost of the cloud pass: the median frame time with the clouds minus
 //!   the median frame time of the same view with no visible layer (the pass then does not run),
-//!   so what the engine does anyway cancels out. Errors compare the linear luminance of the
+//!   so what the engine does anyway cancels out; it includes the temporal accumulation's pass.
+//!   Presets that accumulate jittered frames are measured after 32 frames of a still view, once
+//!   the accumulation has settled (`--no-jitter` turns jitter and accumulation off). Errors
+//!   compare the linear luminance of the
 //!   composite `grey · T + L` over a mid-grey background with the reference's (relative RMSE:
 //!   `sqrt(mean(Δ²)) / mean(reference)`; max: largest `|Δ|`).
 //! - `bench.png`: error (relative RMSE, vertical, log scale 10⁻⁴ to 10) against time relative
@@ -23,7 +26,7 @@
 //! - `images/SCENE_PRESET.png`: each render beside the reference.
 //! - `effects.csv`: `effect,scene,ms_with,ms_without,ratio`, the median whole-frame time with
 //!   and without each optional effect (the cloud shadow map at 256², haze, light shafts, rain,
-//!   fog; see `measure_effects`), on the cumulus scene with `MEDIUM`.
+//!   fog, temporal accumulation; see `measure_effects`), on the cumulus scene with `MEDIUM`.
 //!
 //! `--error-budget` instead prints, for the cumulus and sunset scenes, the error of `HIGH` with one
 //! knob changed at a time, on the CPU reference renderer (48×27, small noise, no jitter) against
@@ -147,6 +150,10 @@ fn median_frame_time(rig: &mut CloudRig, frames: u32) -> Duration {
     times[times.len() / 2]
 }
 
+/// Frames rendered before the error is measured when the preset accumulates jittered frames
+/// (`VolumetricClouds::temporal_blend`): with a blend of 0.1 the first frame then weighs 3 %.
+const SETTLE_FRAMES: u32 = 32;
+
 /// The composite over a mid-grey background, and its linear luminance.
 const BACKGROUND: f32 = 0.25;
 
@@ -180,7 +187,13 @@ fn measure(
 
     baseline_scene.layers.clone_from(&scene.layers);
     rig.set_scene(&baseline_scene);
-    let (radiance, transmittance) = rig.render(2);
+    // With temporal accumulation the error is that of the settled image a still view shows.
+    let settle = if settings.effective_temporal_blend().is_some() {
+        SETTLE_FRAMES
+    } else {
+        2
+    };
+    let (radiance, transmittance) = rig.render(settle);
     let with_clouds = median_frame_time(rig, frames);
 
     let nan_count = radiance
@@ -211,7 +224,9 @@ fn measure(
 ///   the full light march everywhere, the map on in both;
 /// - `rain`: 3 mm/h from the cumulus (a rain-shaft layer under it and the particles), against
 ///   none;
-/// - `fog`: a fog layer at 1 km visibility (coverage 1, 150 m deep), against none.
+/// - `fog`: a fog layer at 1 km visibility (coverage 1, 150 m deep), against none;
+/// - `temporal_accumulation`: `MEDIUM`'s accumulation of jittered frames (blend 0.1), against
+///   each frame alone (blend 1).
 fn measure_effects(rig: &mut CloudRig, frames: u32) -> String {
     let base = Scene {
         settings: VolumetricClouds::MEDIUM,
@@ -280,8 +295,19 @@ fn measure_effects(rig: &mut CloudRig, frames: u32) -> String {
     fog.weather_driven = false;
     foggy.layers.push(fog);
     let with = time(rig, &foggy, false, clear.clone());
-    let without = time(rig, &base, false, clear);
+    let without = time(rig, &base, false, clear.clone());
     row("fog", with, without);
+
+    let alone = Scene {
+        settings: VolumetricClouds {
+            temporal_blend: 1.0,
+            ..VolumetricClouds::MEDIUM
+        },
+        ..base.clone()
+    };
+    let with = time(rig, &base, false, clear.clone());
+    let without = time(rig, &alone, false, clear);
+    row("temporal_accumulation", with, without);
     csv
 }
 

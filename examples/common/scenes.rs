@@ -335,22 +335,19 @@ impl CloudRig {
             .unwrap_or_else(|| self.extracted());
         let world = self.app.world();
         let camera = world.get::<Camera>(self.camera).unwrap();
-        let world_from_clip = world
+        let view_from_clip = camera.clip_from_view().inverse();
+        let world_from_view = world
             .get::<GlobalTransform>(self.camera)
             .unwrap()
-            .to_matrix()
-            * camera.clip_from_view().inverse();
-        let position = world
-            .get::<GlobalTransform>(self.camera)
-            .unwrap()
-            .translation();
+            .to_matrix();
         let exposure = f64::from(EXPOSURE.exposure());
-        // The same ray as march.wgsl: through the pixel centre `uv` on the near plane.
+        // The same ray as march.wgsl's `view_direction`: through the pixel centre `uv` on the
+        // near plane, in view space, rotated into the world.
         let ray = |uv: Vec2| {
             let ndc = Vec2::new(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0);
-            let near = world_from_clip * Vec4::new(ndc.x, ndc.y, 1.0, 1.0);
-            let direction = (near.truncate() / near.w - position).normalize();
-            direction.as_dvec3().to_array()
+            let near = view_from_clip * Vec4::new(ndc.x, ndc.y, 1.0, 1.0);
+            let direction = world_from_view.transform_vector3(near.truncate() / near.w);
+            direction.normalize().as_dvec3().to_array()
         };
         // The shaft pass: factors at the reduced resolution (the rig has no geometry: every ray
         // ends in the sky).

@@ -11,7 +11,19 @@
 //! tolerance serves a hill at 500 m and one at 20 km. Where no texel saw this pixel's surface
 //! (all weights below `1e-4`: a thin object between texels), the texel nearest in distance wins.
 //!
-//! WGSL twin: `src/render/composite/composite.wgsl`.
+//! # Temporal accumulation
+//!
+//! With jitter on, each frame samples every ray at other points, so a still view converges by
+//! averaging frames. The accumulation keeps a full-resolution history of `(L, T)` and blends each
+//! new frame in with weight `α` ([`temporal_resolve`]): an exponential moving average over about
+//! `1/α` frames. Before blending, the history is found where this pixel's content was last frame
+//! ([`reproject`]: the point at the clouds' distance, or the direction alone for the sky, through
+//! last frame's camera), and clamped to the range of the new frame's 3 × 3 neighbourhood, so what
+//! moved or was uncovered does not leave a trail (the neighbourhood clamp of temporal
+//! anti-aliasing; Karis 2014, "High Quality Temporal Supersampling"). A pixel whose history falls
+//! outside last frame's view takes the new frame alone.
+//!
+//! WGSL twin: `src/render/composite/composite.wgsl` and `temporal.wgsl`.
 //!
 //! [`resolution_scale`]: crate::render::VolumetricClouds::resolution_scale
 
@@ -102,6 +114,64 @@ pub fn upsample<const N: usize>(image: &LowResImage<N>, uv: [f64; 2], distance_m
     sum.map(|s| s / weight_sum)
 }
 
+/// Where the content of a pixel was in last frame's image, as `uv` (0–1, origin top left), or
+/// `None` outside last frame's view (or behind its camera). `previous_clip_from_relative` maps a
+/// point relative to this frame's camera to last frame's clip space; the content lies along the
+/// unit `direction` at `distance_m` (as [`stored_distance`]; [`FAR_AWAY`] for the sky: a
+/// direction, which the camera's motion does not move). WGSL twin: `reproject`.
+pub fn reproject(
+    previous_clip_from_relative: &[[f64; 4]; 4],
+    direction: [f64; 3],
+    distance_m: f64,
+) -> Option<[f64; 2]> {
+    let point = if distance_m >= FAR_AWAY {
+        [direction[0], direction[1], direction[2], 0.0]
+    } else {
+        [
+            direction[0] * distance_m,
+            direction[1] * distance_m,
+            direction[2] * distance_m,
+            1.0,
+        ]
+    };
+    // Column-major: column c is previous_clip_from_relative[c].
+    let clip: [f64; 4] = std::array::from_fn(|r| {
+        (0..4)
+            .map(|c| previous_clip_from_relative[c][r] * point[c])
+            .sum()
+    });
+    if clip[3] <= 0.0 {
+        return None;
+    }
+    let ndc = [clip[0] / clip[3], clip[1] / clip[3]];
+    let uv = [0.5 * ndc[0] + 0.5, 0.5 - 0.5 * ndc[1]];
+    uv.iter().all(|v| (0.0..=1.0).contains(v)).then_some(uv)
+}
+
+/// One pixel of the temporal accumulation: `history` (reprojected; `None` where there is none)
+/// clamped to `[lo, hi]`, the new frame's neighbourhood range, then blended toward `current` with
+/// weight `alpha` (0–1; 1 keeps the new frame alone). WGSL twin: the end of `temporal.wgsl`.
+pub fn temporal_resolve<const N: usize>(
+    current: [f64; N],
+    lo: [f64; N],
+    hi: [f64; N],
+    history: Option<[f64; N]>,
+    alpha: f64,
+) -> [f64; N] {
+    let Some(history) = history else {
+        return current;
+    };
+    let alpha = if alpha.is_nan() {
+        1.0
+    } else {
+        alpha.clamp(0.0, 1.0)
+    };
+    std::array::from_fn(|c| {
+        let clamped = history[c].max(lo[c]).min(hi[c]);
+        clamped * (1.0 - alpha) + current[c] * alpha
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -148,6 +218,85 @@ mod tests {
         let img = image([1.0, 2.0, 3.0, 4.0], [2_000.0, 5_000.0, 2_000.0, 5_000.0]);
         let [pole] = upsample(&img, [0.5, 0.5], 50.0);
         assert_eq!(pole, 1.0);
+    }
+
+    /// Bevy's infinite reverse-Z perspective (near 0.1 m) for a vertical field of view `fov`
+    /// and `aspect`, times a camera turned `yaw` radians to the left and moved by `shift`
+    /// (world), as seen from the origin: column-major.
+    fn clip_from_relative(fov: f64, aspect: f64, yaw: f64, shift: [f64; 3]) -> [[f64; 4]; 4] {
+        let f = 1.0 / (fov / 2.0).tan();
+        let projection = [
+            [f / aspect, 0.0, 0.0, 0.0],
+            [0.0, f, 0.0, 0.0],
+            [0.0, 0.0, 0.0, -1.0],
+            [0.0, 0.0, 0.1, 0.0],
+        ];
+        // view_from_relative = R(yaw)ᵀ · (x − shift): rotation about +y.
+        let (s, c) = yaw.sin_cos();
+        let rotation_t = [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]; // columns of Rᵀ
+        let translation: [f64; 3] =
+            std::array::from_fn(|r| -(0..3).map(|k| rotation_t[k][r] * shift[k]).sum::<f64>());
+        let view = [
+            [rotation_t[0][0], rotation_t[0][1], rotation_t[0][2], 0.0],
+            [rotation_t[1][0], rotation_t[1][1], rotation_t[1][2], 0.0],
+            [rotation_t[2][0], rotation_t[2][1], rotation_t[2][2], 0.0],
+            [translation[0], translation[1], translation[2], 1.0],
+        ];
+        std::array::from_fn(|c| {
+            std::array::from_fn(|r| (0..4).map(|k| projection[k][r] * view[c][k]).sum())
+        })
+    }
+
+    #[test]
+    fn reprojection_follows_the_camera() {
+        let fov = 60f64.to_radians();
+        let ahead = [0.0, 0.0, -1.0];
+        // Same camera: the centre stays the centre.
+        let still = clip_from_relative(fov, 16.0 / 9.0, 0.0, [0.0; 3]);
+        let [u, v] = reproject(&still, ahead, FAR_AWAY).unwrap();
+        assert!((u - 0.5).abs() < 1e-12 && (v - 0.5).abs() < 1e-12);
+        // Last frame the camera looked 10° further left: what is ahead now was right of centre,
+        // at tan(10°) / (aspect · tan(30°)) of the half-width.
+        let turned = clip_from_relative(fov, 16.0 / 9.0, 10f64.to_radians(), [0.0; 3]);
+        let [u, _] = reproject(&turned, ahead, FAR_AWAY).unwrap();
+        let expected =
+            0.5 + 0.5 * 10f64.to_radians().tan() / (16.0 / 9.0 * 30f64.to_radians().tan());
+        assert!((u - expected).abs() < 1e-12, "{u} vs {expected}");
+        // A camera that moved sideways leaves the sky where it was, and shifts a cloud 1 km
+        // ahead by the parallax of the move.
+        let moved = clip_from_relative(fov, 1.0, 0.0, [10.0, 0.0, 0.0]);
+        let [u, _] = reproject(&moved, ahead, FAR_AWAY).unwrap();
+        assert!((u - 0.5).abs() < 1e-12);
+        let [u, _] = reproject(&moved, ahead, 1000.0).unwrap();
+        let expected = 0.5 - 0.5 * (10.0 / 1000.0) / 30f64.to_radians().tan();
+        assert!((u - expected).abs() < 1e-9, "{u} vs {expected}");
+        // Behind last frame's camera, or outside its view: no history.
+        let behind = clip_from_relative(fov, 1.0, std::f64::consts::PI, [0.0; 3]);
+        assert_eq!(reproject(&behind, ahead, FAR_AWAY), None);
+        assert_eq!(reproject(&turned, [0.0, 0.0, 1.0], 500.0), None);
+    }
+
+    #[test]
+    fn the_resolve_blends_a_clamped_history() {
+        // Converges on a still input as 1 − (1 − α)ⁿ.
+        let mut value = [0.0];
+        for _ in 0..10 {
+            value = temporal_resolve([1.0], [0.0], [1.0], Some(value), 0.2);
+        }
+        assert!((value[0] - (1.0 - 0.8f64.powi(10))).abs() < 1e-12);
+        // A history outside the new neighbourhood is clamped to it first (no trail).
+        let [v] = temporal_resolve([0.5], [0.4], [0.6], Some([5.0]), 0.1);
+        assert!((v - (0.6 * 0.9 + 0.5 * 0.1)).abs() < 1e-12);
+        // No history, or α = 1: the new frame alone; a NaN α is treated as 1.
+        assert_eq!(temporal_resolve([0.3], [0.0], [1.0], None, 0.1), [0.3]);
+        assert_eq!(
+            temporal_resolve([0.3], [0.0], [1.0], Some([0.9]), 1.0),
+            [0.3]
+        );
+        assert_eq!(
+            temporal_resolve([0.3], [0.0], [1.0], Some([0.9]), f64::NAN),
+            [0.3]
+        );
     }
 
     #[test]

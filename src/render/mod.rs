@@ -97,6 +97,13 @@ pub struct VolumetricClouds {
     /// [`shadow::CloudShadows`] on. Default true (`LOW` false: the haze uses the clouds' mean
     /// shade instead).
     pub light_shafts: bool,
+    /// Temporal accumulation: the weight of each new frame in a running average of the jittered
+    /// frames (0.02–1; 1 turns it off), reprojected through the camera's motion and clamped to
+    /// the new frame's neighbourhood ([`composite`]). A still view averages about `1 / blend`
+    /// frames, which turns the jitter's noise into a converged image. Only with
+    /// [`VolumetricClouds::jitter`] on: without it every frame samples the same points. Default
+    /// 0.1.
+    pub temporal_blend: f32,
     /// Fraction of the view's resolution the light-shaft pass runs at, per axis (0.125–1).
     /// Shafts are soft, so a quarter of the resolution per axis (a sixteenth of the rays) keeps
     /// them; a depth-aware upsample keeps them off the edges of near geometry. Default 0.25
@@ -152,6 +159,7 @@ impl VolumetricClouds {
         phase_blend: 0.2,
         haze_steps: 16,
         light_shafts: true,
+        temporal_blend: 0.1,
         light_shaft_resolution_scale: 0.25,
         sun_from_shadow_map_m: 5_000.0,
         min_step_m: 20.0,
@@ -193,6 +201,13 @@ impl VolumetricClouds {
 }
 
 impl VolumetricClouds {
+    /// [`VolumetricClouds::temporal_blend`] as the accumulation uses it: `None` (off) without
+    /// jitter, at 1 or more, or when not a number; otherwise clamped to 0.02–1.
+    #[must_use]
+    pub fn effective_temporal_blend(&self) -> Option<f32> {
+        (self.jitter && self.temporal_blend < 1.0).then(|| self.temporal_blend.max(0.02))
+    }
+
     /// [`VolumetricClouds::light_shaft_resolution_scale`] as the pass uses it: clamped to
     /// 0.125–1, and 0.25 when not a number.
     #[must_use]

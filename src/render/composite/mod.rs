@@ -17,6 +17,28 @@
 //! edges of near geometry. The weights and their CPU twin are documented in
 //! [`crate::reference::composite`].
 //!
+//! # Temporal accumulation
+//!
+//! With [`VolumetricClouds::temporal_blend`] below 1 and jitter on (every preset), the march
+//! always writes its targets (at any resolution scale), and `temporal.wgsl` blends them into a
+//! full-resolution history ([`CloudHistory`], two [`HISTORY_FORMAT`] textures that swap each
+//! frame): the new frame at the pixel (upsampled as above) is mixed with the history found where
+//! the pixel's content was last frame, clamped to the new frame's 3 × 3 neighbourhood.
+//! Reprojection uses the clouds' distance (the second channel of the distance target) and last
+//! frame's camera ([`ViewPose::clip_from_relative`], composed in f64 relative to this frame's
+//! camera); the history is read with a Catmull-Rom filter, so reprojecting every frame does not
+//! blur. The `copy` entry of `upsample.wgsl` then composites the new history onto the view. The
+//! history starts over when the view's size changes or a frame was skipped. The method and the
+//! CPU twin of its arithmetic are in [`crate::reference::composite`].
+//!
+//! The GPU test `temporal_accumulation_converges_and_follows_the_camera` measures it on noon
+//! cumulus at 24 primary steps: against the mean of 16 jittered frames, one frame is off by
+//! 24 % relative RMSE, 24 accumulated frames by 5 %, and after turning 6° over 12 frames by
+//! 13 %. What is left against a converged march (256 steps), 25 %, is the 24-step march's bias,
+//! which the mean of the jittered frames has too.
+//!
+//! [`VolumetricClouds::temporal_blend`]: super::VolumetricClouds::temporal_blend
+//!
 //! [`VolumetricClouds::resolution_scale`]: super::VolumetricClouds::resolution_scale
 //! [`VolumetricClouds::light_shaft_resolution_scale`]: super::VolumetricClouds::light_shaft_resolution_scale
 
@@ -25,33 +47,42 @@ use std::borrow::Cow;
 use bevy::{
     asset::{embedded_asset, load_embedded_asset},
     core_pipeline::FullscreenShader,
+    diagnostic::FrameCount,
+    math::{DMat4, DQuat, DVec3},
+    platform::collections::HashMap,
     prelude::*,
     render::{
         render_resource::{
             binding_types::{
-                texture_2d, texture_depth_2d, texture_depth_2d_multisampled, uniform_buffer,
+                sampler, texture_2d, texture_depth_2d, texture_depth_2d_multisampled,
+                uniform_buffer,
             },
             *,
         },
-        renderer::RenderDevice,
+        renderer::{RenderDevice, RenderQueue},
         texture::{CachedTexture, TextureCache},
-        view::{ViewTarget, ViewUniform},
+        view::{ExtractedView, ViewTarget, ViewUniform},
     },
     shader::load_shader_library,
 };
 
-use super::march::{CloudMarchPipelineKey, ExtractedCloudView};
+use super::march::ExtractedCloudView;
 
 /// Loads `composite.wgsl` (the shader library of the upsample weights) and `upsample.wgsl`.
 pub(crate) fn load_composite_shaders(app: &mut App) {
     load_shader_library!(app, "composite.wgsl");
     embedded_asset!(app, "upsample.wgsl");
+    embedded_asset!(app, "temporal.wgsl");
 }
 
 /// Format of the reduced-resolution `(L, T)` target.
 pub const LOW_RES_COLOUR_FORMAT: TextureFormat = TextureFormat::Rgba16Float;
-/// Format of the reduced-resolution target of ray-end distances (metres).
-pub const LOW_RES_DISTANCE_FORMAT: TextureFormat = TextureFormat::R32Float;
+/// Format of the reduced-resolution target of distances, metres: where each ray was stopped,
+/// and where its content lies (the clouds' opacity-weighted distance, or the scene's if nearer)
+/// for the temporal accumulation's reprojection.
+pub const LOW_RES_DISTANCE_FORMAT: TextureFormat = TextureFormat::Rg32Float;
+/// Format of the temporal accumulation's history of `(L, T)`, at the view's full resolution.
+pub const HISTORY_FORMAT: TextureFormat = TextureFormat::Rgba16Float;
 /// Format of the light-shaft factors: the factor below the lowest cloud base, the factor above
 /// it, and the distance the ray was stopped at (metres, so 32-bit).
 pub const SHAFT_FORMAT: TextureFormat = TextureFormat::Rgba32Float;
@@ -117,9 +148,20 @@ pub struct CloudUpsamplePipeline {
     shader: Handle<Shader>,
 }
 
+/// What an upsample pipeline is specialised on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct CloudUpsampleKey {
+    /// Format of the view's main texture.
+    pub format: TextureFormat,
+    /// MSAA sample count of the view.
+    pub samples: u32,
+    /// Composite a full-resolution image as it is (the temporal history; entry `copy`) instead
+    /// of upsampling.
+    pub copy: bool,
+}
+
 impl SpecializedRenderPipeline for CloudUpsamplePipeline {
-    /// The view's main-texture format and sample count (`low_res` unused).
-    type Key = CloudMarchPipelineKey;
+    type Key = CloudUpsampleKey;
 
     fn specialize(&self, key: Self::Key) -> RenderPipelineDescriptor {
         let multisampled = key.samples > 1;
@@ -129,7 +171,11 @@ impl SpecializedRenderPipeline for CloudUpsamplePipeline {
             Vec::new()
         };
         RenderPipelineDescriptor {
-            label: Some(Cow::Borrowed("cloud_upsample_pipeline")),
+            label: Some(Cow::Borrowed(if key.copy {
+                "cloud_history_composite_pipeline"
+            } else {
+                "cloud_upsample_pipeline"
+            })),
             layout: vec![if multisampled {
                 self.layout_multisampled.clone()
             } else {
@@ -139,7 +185,7 @@ impl SpecializedRenderPipeline for CloudUpsamplePipeline {
             fragment: Some(FragmentState {
                 shader: self.shader.clone(),
                 shader_defs,
-                entry_point: Some(Cow::Borrowed("fragment")),
+                entry_point: Some(Cow::Borrowed(if key.copy { "copy" } else { "fragment" })),
                 targets: vec![Some(ColorTargetState {
                     format: key.format,
                     blend: Some(COMPOSITE_BLEND),
@@ -153,6 +199,151 @@ impl SpecializedRenderPipeline for CloudUpsamplePipeline {
             ..default()
         }
     }
+}
+
+/// The temporal accumulation's uniform, laid out as `TemporalUniforms` in `temporal.wgsl`
+/// (80 bytes).
+#[derive(ShaderType, Clone, Debug, Default)]
+pub struct GpuTemporalUniforms {
+    /// Last frame's clip space from a point relative to this frame's camera.
+    pub previous_clip_from_relative: Mat4,
+    /// Weight of the new frame, 0–1.
+    pub blend: f32,
+    /// 1 when the history holds last frame of this view.
+    pub valid: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+/// Where a view's camera was and how it projected, for the next frame's reprojection.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ViewPose {
+    /// The camera's world position, m (f64: a camera far from the origin keeps its precision).
+    pub position: DVec3,
+    /// The camera's world rotation.
+    pub rotation: DQuat,
+    /// The projection.
+    pub clip_from_view: DMat4,
+}
+
+impl ViewPose {
+    /// The pose of a camera with `world_from_view` and `clip_from_view`.
+    pub fn new(world_from_view: &GlobalTransform, clip_from_view: Mat4) -> Self {
+        let (_, rotation, translation) = world_from_view.to_scale_rotation_translation();
+        Self {
+            position: translation.as_dvec3(),
+            rotation: rotation.as_dquat(),
+            clip_from_view: clip_from_view.as_dmat4(),
+        }
+    }
+
+    /// This (last frame's) pose's clip space from a point relative to a camera now at
+    /// `camera_m`: `clip_from_view · R⁻¹ · (x + camera_m − position)`, composed in f64. The
+    /// matrix [`crate::reference::composite::reproject`] takes.
+    pub fn clip_from_relative(&self, camera_m: DVec3) -> DMat4 {
+        self.clip_from_view
+            * DMat4::from_quat(self.rotation.inverse())
+            * DMat4::from_translation(camera_m - self.position)
+    }
+}
+
+/// Layouts, sampler and shader of the temporal accumulation (`temporal.wgsl`).
+#[derive(Resource)]
+pub struct CloudTemporalPipeline {
+    pub(crate) layout: BindGroupLayoutDescriptor,
+    pub(crate) layout_multisampled: BindGroupLayoutDescriptor,
+    pub(crate) sampler: Sampler,
+    fullscreen: FullscreenShader,
+    shader: Handle<Shader>,
+}
+
+fn temporal_layout(label: &'static str, multisampled: bool) -> BindGroupLayoutDescriptor {
+    BindGroupLayoutDescriptor::new(
+        label,
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::FRAGMENT,
+            (
+                uniform_buffer::<ViewUniform>(true),
+                depth_binding(multisampled),
+                texture_2d(TextureSampleType::Float { filterable: false }),
+                texture_2d(TextureSampleType::Float { filterable: false }),
+                texture_2d(TextureSampleType::Float { filterable: true }),
+                sampler(SamplerBindingType::Filtering),
+                uniform_buffer::<GpuTemporalUniforms>(false),
+            ),
+        ),
+    )
+}
+
+/// Creates [`CloudTemporalPipeline`] (render world, at start-up).
+pub(crate) fn init_cloud_temporal_pipeline(
+    mut commands: Commands,
+    asset_server: Res<AssetServer>,
+    fullscreen: Res<FullscreenShader>,
+    device: Res<RenderDevice>,
+) {
+    let sampler = device.create_sampler(&SamplerDescriptor {
+        label: Some("cloud_history_sampler"),
+        mag_filter: FilterMode::Linear,
+        min_filter: FilterMode::Linear,
+        ..default()
+    });
+    commands.insert_resource(CloudTemporalPipeline {
+        layout: temporal_layout("cloud_temporal_layout", false),
+        layout_multisampled: temporal_layout("cloud_temporal_layout_multisampled", true),
+        sampler,
+        fullscreen: fullscreen.clone(),
+        shader: load_embedded_asset!(asset_server.as_ref(), "temporal.wgsl"),
+    });
+}
+
+impl SpecializedRenderPipeline for CloudTemporalPipeline {
+    /// The view's MSAA sample count (the depth prepass is multisampled when > 1).
+    type Key = u32;
+
+    fn specialize(&self, samples: Self::Key) -> RenderPipelineDescriptor {
+        let multisampled = samples > 1;
+        RenderPipelineDescriptor {
+            label: Some(Cow::Borrowed("cloud_temporal_pipeline")),
+            layout: vec![if multisampled {
+                self.layout_multisampled.clone()
+            } else {
+                self.layout.clone()
+            }],
+            vertex: self.fullscreen.to_vertex_state(),
+            fragment: Some(FragmentState {
+                shader: self.shader.clone(),
+                shader_defs: if multisampled {
+                    vec!["MULTISAMPLED".into()]
+                } else {
+                    Vec::new()
+                },
+                entry_point: Some(Cow::Borrowed("temporal_resolve")),
+                targets: vec![Some(ColorTargetState::from(HISTORY_FORMAT))],
+            }),
+            ..default()
+        }
+    }
+}
+
+/// The temporal accumulation of a view: the history it reads (last frame's) and the one it
+/// writes, and the uniform.
+#[derive(Component)]
+pub struct CloudHistory {
+    /// Last frame's history.
+    pub read: CachedTexture,
+    /// This frame's history, which is also what gets composited.
+    pub write: CachedTexture,
+    /// The reprojection and blend.
+    pub uniforms: UniformBuffer<GpuTemporalUniforms>,
+}
+
+/// What the accumulation remembers of a view between frames (render world).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct HistoryState {
+    pose: ViewPose,
+    size: UVec2,
+    frame: u32,
 }
 
 /// The reduced-resolution targets of a view that marches below full resolution.
@@ -179,14 +370,21 @@ pub fn low_res_size(size: UVec2, scale: f32) -> UVec2 {
     (size.as_vec2() * scale).ceil().as_uvec2().max(UVec2::ONE)
 }
 
-/// Creates or drops each view's reduced-resolution targets (render world, every frame).
+/// Creates or drops each view's reduced-resolution targets and temporal history (render world,
+/// every frame).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn prepare_low_res_targets(
     mut commands: Commands,
     mut cache: ResMut<TextureCache>,
     device: Res<RenderDevice>,
-    views: Query<(Entity, &ViewTarget, &ExtractedCloudView)>,
+    queue: Res<RenderQueue>,
+    frame: Res<FrameCount>,
+    mut states: Local<HashMap<Entity, HistoryState>>,
+    views: Query<(Entity, &ViewTarget, &ExtractedView, &ExtractedCloudView)>,
 ) {
-    for (entity, target, view) in &views {
+    // Views that are gone start over if they come back.
+    states.retain(|entity, _| views.contains(*entity));
+    for (entity, target, extracted, view) in &views {
         let full = target.main_texture().size();
         let full = UVec2::new(full.width, full.height);
         let mut texture = |label: &'static str, format: TextureFormat, size: UVec2| {
@@ -209,7 +407,47 @@ pub(crate) fn prepare_low_res_targets(
             )
         };
         let mut entity_commands = commands.entity(entity);
-        if view.resolution_scale < 1.0 {
+        // The temporal accumulation marches into the targets too, at any scale.
+        if let Some(blend) = view.temporal_blend {
+            let pose = ViewPose::new(&extracted.world_from_view, extracted.clip_from_view);
+            let previous = states.insert(
+                entity,
+                HistoryState {
+                    pose,
+                    size: full,
+                    frame: frame.0,
+                },
+            );
+            let valid = previous
+                .filter(|p| p.size == full && p.frame.wrapping_add(1) == frame.0)
+                .map(|p| p.pose);
+            let mut uniforms = UniformBuffer::from(GpuTemporalUniforms {
+                previous_clip_from_relative: valid
+                    .map_or(DMat4::IDENTITY, |p| p.clip_from_relative(pose.position))
+                    .as_mat4(),
+                blend,
+                valid: u32::from(valid.is_some()),
+                ..default()
+            });
+            uniforms.set_label(Some("cloud_temporal_uniforms"));
+            uniforms.write_buffer(&device, &queue);
+            let first = texture("cloud_history_1", HISTORY_FORMAT, full);
+            let second = texture("cloud_history_2", HISTORY_FORMAT, full);
+            let (read, write) = if frame.0.is_multiple_of(2) {
+                (second, first)
+            } else {
+                (first, second)
+            };
+            entity_commands.insert(CloudHistory {
+                read,
+                write,
+                uniforms,
+            });
+        } else {
+            states.remove(&entity);
+            entity_commands.remove::<CloudHistory>();
+        }
+        if view.resolution_scale < 1.0 || view.temporal_blend.is_some() {
             let size = low_res_size(full, view.resolution_scale);
             let colour = texture("cloud_low_res_colour", LOW_RES_COLOUR_FORMAT, size);
             let distance = texture("cloud_low_res_distance", LOW_RES_DISTANCE_FORMAT, size);

@@ -3,6 +3,8 @@
 // weights times `depth_weight` (`composite.wgsl`), so a pixel of near geometry takes only texels
 // that were stopped at similar geometry, and cloud in front of the sky does not bleed over a
 // hill's edge. The output is blended as `scene * T + L`, like the full-resolution march.
+// A second entry, `copy`, composites a full-resolution image as it is (the temporal history,
+// `temporal.wgsl`).
 // CPU twin: `upsample` in `src/reference/composite.rs`. Rust side:
 // `src/render/composite/mod.rs`.
 
@@ -58,4 +60,10 @@ fn fragment(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
         return nearest;
     }
     return sum / weight_sum;
+}
+
+// The full-resolution (L, T) at this pixel, composited as it is.
+@fragment
+fn copy(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
+    return textureLoad(low_colour, vec2<i32>(in.position.xy), 0);
 }

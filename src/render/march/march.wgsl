@@ -32,13 +32,23 @@
 @group(0) @binding(11) var shaft_texture: texture_2d<f32>;
 
 #ifdef LOW_RES
-// At a reduced resolution the pass writes (L, T) and, for the depth-aware upsample
-// (`upsample.wgsl`), the distance the ray was stopped at.
+// At a reduced resolution, and for the temporal accumulation, the pass writes (L, T) and, for
+// the depth-aware upsample (`upsample.wgsl`, `temporal.wgsl`), the distance the ray was stopped
+// at and the distance of its content.
 struct MarchOutput {
     @location(0) colour: vec4<f32>,
     @location(1) distance: vec4<f32>,
 }
 #endif
+
+// The unit world direction of the view ray through `ndc`. Built in view space and rotated, not
+// as a near-plane point minus the camera in world space: a camera 8 km from the origin holds
+// its world position to a millimetre in f32, which against a 0.1 m near plane turns the
+// directions by up to half a degree, in blocks.
+fn view_direction(ndc: vec2<f32>) -> vec3<f32> {
+    let near_view = view.view_from_clip * vec4<f32>(ndc, 1.0, 1.0);
+    return normalize((view.world_from_view * vec4<f32>(near_view.xyz / near_view.w, 0.0)).xyz);
+}
 
 // The view ray through the fullscreen triangle's `uv`, and where it ends (the scene's depth, or
 // FAR_AWAY for the sky).
@@ -50,8 +60,7 @@ struct ViewRay {
 fn view_ray(uv: vec2<f32>, depth: f32) -> ViewRay {
     // Bevy's reverse-Z puts the near plane at NDC depth 1; the far plane is at infinity.
     let ndc = vec2<f32>(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0);
-    let near_world = view.world_from_clip * vec4<f32>(ndc, 1.0, 1.0);
-    let direction = normalize(near_world.xyz / near_world.w - view.world_position);
+    let direction = view_direction(ndc);
     // Depth 0 is the sky: march to infinity. Otherwise the ray ends at the surface, whose
     // distance is the length of its view-space position.
     var t_max = FAR_AWAY;
@@ -132,7 +141,9 @@ fn fragment(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
     let hazy = march_haze(clouds.camera_altitude_m, clouds.camera_up.xyz, direction, t_max, cloud.distance, jitter, shafts);
     let result = composite_haze(hazy, cloud.colour);
 #ifdef LOW_RES
-    return MarchOutput(vec4<f32>(result.rgb * view.exposure, result.a), vec4<f32>(t_max));
+    // Where the ray stopped (the upsample's depth weights) and where its content lies (the
+    // temporal accumulation's reprojection): the clouds, or the scene in front of them.
+    return MarchOutput(vec4<f32>(result.rgb * view.exposure, result.a), vec4<f32>(t_max, min(cloud.distance, t_max), 0.0, 0.0));
 #else
     return vec4<f32>(result.rgb * view.exposure, result.a);
 #endif

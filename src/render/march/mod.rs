@@ -74,9 +74,10 @@ use bevy::{
 use super::{
     VolumetricClouds,
     composite::{
-        COMPOSITE_BLEND, CloudLowResTargets, CloudShaftTarget, CloudUpsamplePipeline,
-        LOW_RES_COLOUR_FORMAT, LOW_RES_DISTANCE_FORMAT, SHAFT_FORMAT, depth_binding,
-        init_cloud_upsample_pipeline, load_composite_shaders, prepare_low_res_targets,
+        COMPOSITE_BLEND, CloudHistory, CloudLowResTargets, CloudShaftTarget, CloudTemporalPipeline,
+        CloudUpsampleKey, CloudUpsamplePipeline, LOW_RES_COLOUR_FORMAT, LOW_RES_DISTANCE_FORMAT,
+        SHAFT_FORMAT, depth_binding, init_cloud_temporal_pipeline, init_cloud_upsample_pipeline,
+        load_composite_shaders, prepare_low_res_targets,
     },
     haze::{CloudShadowFrame, GpuHazeUniforms, Haze, haze_settings, load_haze_shader},
     noise::CloudNoiseTextures,
@@ -142,9 +143,14 @@ impl Plugin for CloudMarchPlugin {
         render_app
             .init_resource::<SpecializedRenderPipelines<CloudMarchPipeline>>()
             .init_resource::<SpecializedRenderPipelines<CloudUpsamplePipeline>>()
+            .init_resource::<SpecializedRenderPipelines<CloudTemporalPipeline>>()
             .add_systems(
                 RenderStartup,
-                (init_cloud_march_pipeline, init_cloud_upsample_pipeline),
+                (
+                    init_cloud_march_pipeline,
+                    init_cloud_upsample_pipeline,
+                    init_cloud_temporal_pipeline,
+                ),
             )
             .add_systems(
                 Render,
@@ -630,6 +636,9 @@ pub struct ExtractedCloudView {
     /// [`VolumetricClouds::effective_light_shaft_resolution_scale`] when the view draws light
     /// shafts (haze, and [`VolumetricClouds::light_shafts`] on); `None` otherwise.
     pub shaft_resolution_scale: Option<f32>,
+    /// [`VolumetricClouds::effective_temporal_blend`]: the temporal accumulation's weight of
+    /// the new frame, `None` when it is off.
+    pub temporal_blend: Option<f32>,
     /// World position of the camera, m (places the cloud shadow map for the light shafts).
     pub camera_m: DVec3,
 }
@@ -643,6 +652,8 @@ pub struct CloudPassStats {
     pub views_upsampled: u64,
     /// Of those, views whose light shafts ran (the reduced-resolution shaft pass).
     pub views_with_shafts: u64,
+    /// Of those, views blended into their temporal history.
+    pub views_accumulated: u64,
 }
 
 fn extract_cloud_views(
@@ -696,6 +707,7 @@ fn extract_cloud_views(
             resolution_scale: settings.effective_resolution_scale(),
             shaft_resolution_scale: (haze.shafts && haze.is_active())
                 .then(|| settings.effective_light_shaft_resolution_scale()),
+            temporal_blend: settings.effective_temporal_blend(),
             haze,
             camera_m: transform.translation().as_dvec3(),
         });
@@ -921,6 +933,8 @@ pub struct CloudMarchPipelineId {
     pub upsample: Option<CachedRenderPipelineId>,
     /// The light-shaft pass.
     pub shafts: Option<CachedRenderPipelineId>,
+    /// The temporal accumulation and the composite of its history.
+    pub temporal: Option<(CachedRenderPipelineId, CachedRenderPipelineId)>,
 }
 
 fn prepare_cloud_march_pipelines(
@@ -928,24 +942,38 @@ fn prepare_cloud_march_pipelines(
     pipeline_cache: Res<PipelineCache>,
     mut pipelines: ResMut<SpecializedRenderPipelines<CloudMarchPipeline>>,
     mut upsample_pipelines: ResMut<SpecializedRenderPipelines<CloudUpsamplePipeline>>,
+    mut temporal_pipelines: ResMut<SpecializedRenderPipelines<CloudTemporalPipeline>>,
     pipeline: Option<Res<CloudMarchPipeline>>,
     upsample: Option<Res<CloudUpsamplePipeline>>,
+    temporal: Option<Res<CloudTemporalPipeline>>,
     views: Query<(Entity, &ViewTarget, &Msaa, &ExtractedCloudView)>,
 ) {
-    let (Some(pipeline), Some(upsample)) = (pipeline, upsample) else {
+    let (Some(pipeline), Some(upsample), Some(temporal)) = (pipeline, upsample, temporal) else {
         return;
     };
     for (entity, target, msaa, view) in &views {
         let key = CloudMarchPipelineKey {
             format: target.main_texture_format(),
             samples: msaa.samples(),
-            low_res: view.resolution_scale < 1.0,
+            // The temporal accumulation reads the march from the targets too.
+            low_res: view.resolution_scale < 1.0 || view.temporal_blend.is_some(),
             shafts: false,
         };
         let march = pipelines.specialize(&pipeline_cache, &pipeline, key);
-        let upsample = key
-            .low_res
-            .then(|| upsample_pipelines.specialize(&pipeline_cache, &upsample, key));
+        let composite = |copy| CloudUpsampleKey {
+            format: key.format,
+            samples: key.samples,
+            copy,
+        };
+        let accumulate = view.temporal_blend.is_some();
+        let upsample_id = (key.low_res && !accumulate)
+            .then(|| upsample_pipelines.specialize(&pipeline_cache, &upsample, composite(false)));
+        let temporal_ids = accumulate.then(|| {
+            (
+                temporal_pipelines.specialize(&pipeline_cache, &temporal, key.samples),
+                upsample_pipelines.specialize(&pipeline_cache, &upsample, composite(true)),
+            )
+        });
         let shafts = view.shaft_resolution_scale.is_some().then(|| {
             let key = CloudMarchPipelineKey {
                 low_res: false,
@@ -956,8 +984,9 @@ fn prepare_cloud_march_pipelines(
         });
         commands.entity(entity).insert(CloudMarchPipelineId {
             march,
-            upsample,
+            upsample: upsample_id,
             shafts,
+            temporal: temporal_ids,
         });
     }
 }
@@ -971,12 +1000,71 @@ type MarchViewQuery = (
     &'static Msaa,
     Option<&'static CloudLowResTargets>,
     Option<&'static CloudShaftTarget>,
+    Option<&'static CloudHistory>,
 );
 
+/// How the march's output reaches the view.
+enum Finish<'a> {
+    /// The march blends onto the view itself.
+    Direct,
+    /// The march writes the reduced-resolution targets; the upsample composites them.
+    Upsample {
+        targets: &'a CloudLowResTargets,
+        pipeline: &'a RenderPipeline,
+    },
+    /// The march writes the targets; the temporal pass blends them into the history, which is
+    /// then composited.
+    Temporal {
+        targets: &'a CloudLowResTargets,
+        history: &'a CloudHistory,
+        resolve: &'a RenderPipeline,
+        composite: &'a RenderPipeline,
+    },
+}
+
+/// One fullscreen triangle into `attachments`.
+fn fullscreen_pass(
+    ctx: &mut RenderContext,
+    label: &'static str,
+    attachments: &[Option<RenderPassColorAttachment<'_>>],
+    pipeline: &RenderPipeline,
+    bind_group: &BindGroup,
+    view_offset: u32,
+) {
+    let mut pass = ctx
+        .command_encoder()
+        .begin_render_pass(&RenderPassDescriptor {
+            label: Some(label),
+            color_attachments: attachments,
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, bind_group, &[view_offset]);
+    pass.draw(0..3, 0..1);
+}
+
+/// An attachment cleared to `value` and stored.
+fn clear(view: &TextureView, value: LinearRgba) -> RenderPassColorAttachment<'_> {
+    RenderPassColorAttachment {
+        view,
+        depth_slice: None,
+        resolve_target: None,
+        ops: Operations {
+            load: LoadOp::Clear(value.into()),
+            store: StoreOp::Store,
+        },
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
 fn march_cloud_layers(
     view: ViewQuery<MarchViewQuery, With<ExtractedCloudView>>,
     pipeline: Option<Res<CloudMarchPipeline>>,
     upsample: Option<Res<CloudUpsamplePipeline>>,
+    temporal: Option<Res<CloudTemporalPipeline>>,
     noise: Option<Res<CloudNoiseTextures>>,
     view_uniforms: Res<ViewUniforms>,
     pipeline_cache: Res<PipelineCache>,
@@ -985,16 +1073,35 @@ fn march_cloud_layers(
     mut stats: ResMut<CloudPassStats>,
     mut ctx: RenderContext,
 ) {
-    let (target, prepass, view_offset, buffers, pipeline_ids, msaa, low_res, shaft_target): QueryItem<
-        MarchViewQuery,
-    > = view.into_inner();
-    let (Some(pipeline), Some(noise), Some(view_binding), Some(depth), Some(render_pipeline)) = (
+    let (
+        target,
+        prepass,
+        view_offset,
+        buffers,
+        pipeline_ids,
+        msaa,
+        low_res,
+        shaft_target,
+        history,
+    ): QueryItem<MarchViewQuery> = view.into_inner();
+    let (
+        Some(pipeline),
+        Some(upsample),
+        Some(temporal),
+        Some(noise),
+        Some(view_binding),
+        Some(depth),
+        Some(render_pipeline),
+    ) = (
         pipeline,
+        upsample,
+        temporal,
         noise,
         view_uniforms.uniforms.binding(),
         prepass.depth_view(),
         pipeline_cache.get_render_pipeline(pipeline_ids.march),
-    ) else {
+    )
+    else {
         return;
     };
     let (Some(uniforms), Some(layers), Some(haze)) = (
@@ -1009,18 +1116,35 @@ fn march_cloud_layers(
         .shadow_map
         .and_then(|id| images.get(id))
         .map_or(&fallback.d2.texture_view, |image| &image.texture_view);
-    // At a reduced resolution: the targets, and the upsample's pipeline and layout.
-    let upsample = match (low_res, pipeline_ids.upsample) {
-        (Some(targets), Some(id)) => {
-            let (Some(upsample), Some(upsample_pipeline)) =
-                (upsample, pipeline_cache.get_render_pipeline(id))
-            else {
+    // The targets and pipelines of the view's way to the screen; while those of a changed
+    // setting are not ready, the frame waits.
+    let finish = match (
+        low_res,
+        history,
+        pipeline_ids.upsample,
+        pipeline_ids.temporal,
+    ) {
+        (None, None, None, None) => Finish::Direct,
+        (Some(targets), None, Some(id), None) => {
+            let Some(pipeline) = pipeline_cache.get_render_pipeline(id) else {
                 return;
             };
-            Some((targets, upsample, upsample_pipeline))
+            Finish::Upsample { targets, pipeline }
         }
-        (None, None) => None,
-        // The targets or pipeline of a changed scale are not ready yet.
+        (Some(targets), Some(history), None, Some((resolve, composite))) => {
+            let (Some(resolve), Some(composite)) = (
+                pipeline_cache.get_render_pipeline(resolve),
+                pipeline_cache.get_render_pipeline(composite),
+            ) else {
+                return;
+            };
+            Finish::Temporal {
+                targets,
+                history,
+                resolve,
+                composite,
+            }
+        }
         _ => return,
     };
     // The light-shaft pass: its target and pipeline. The uniforms promise the march its
@@ -1037,17 +1161,17 @@ fn march_cloud_layers(
         None
     };
     let multisampled = msaa.samples() > 1;
-    let layout = if multisampled {
-        &pipeline.layout_multisampled
-    } else {
-        &pipeline.layout
+    let device = ctx.render_device().clone();
+    let pick = |single: &BindGroupLayoutDescriptor, multi: &BindGroupLayoutDescriptor| {
+        pipeline_cache.get_bind_group_layout(if multisampled { multi } else { single })
     };
     // Binding 11 is the shaft pass's output for the march, and a stand-in for the shaft pass
     // itself (a texture may not be read and written in one pass).
+    let march_layout = pick(&pipeline.layout, &pipeline.layout_multisampled);
     let march_bind_group = |label: &'static str, shaft_view: &TextureView| {
-        ctx.render_device().create_bind_group(
+        device.create_bind_group(
             label,
-            &pipeline_cache.get_bind_group_layout(layout),
+            &march_layout,
             &BindGroupEntries::sequential((
                 view_binding.clone(),
                 depth,
@@ -1070,102 +1194,128 @@ fn march_cloud_layers(
         shafts.map_or(stand_in, |(target, _)| &target.factors.default_view),
     );
     let shaft_bind_group = shafts.map(|_| march_bind_group("cloud_shaft_bind_group", stand_in));
-    let upsample_bind_group = upsample.as_ref().map(|(targets, upsample, _)| {
-        let layout = if multisampled {
-            &upsample.layout_multisampled
-        } else {
-            &upsample.layout
-        };
-        ctx.render_device().create_bind_group(
-            "cloud_upsample_bind_group",
-            &pipeline_cache.get_bind_group_layout(layout),
-            &BindGroupEntries::sequential((
-                view_binding,
-                depth,
-                &targets.colour.default_view,
-                &targets.distance.default_view,
-            )),
+    let upsample_layout = pick(&upsample.layout, &upsample.layout_multisampled);
+    let upsample_bind_group = |label: &'static str, colour: &TextureView, distance| {
+        device.create_bind_group(
+            label,
+            &upsample_layout,
+            &BindGroupEntries::sequential((view_binding.clone(), depth, colour, distance)),
         )
-    });
+    };
+    let temporal_bind_group = match &finish {
+        Finish::Temporal {
+            targets, history, ..
+        } => {
+            let Some(temporal_uniforms) = history.uniforms.binding() else {
+                return;
+            };
+            Some(device.create_bind_group(
+                "cloud_temporal_bind_group",
+                &pick(&temporal.layout, &temporal.layout_multisampled),
+                &BindGroupEntries::sequential((
+                    view_binding.clone(),
+                    depth,
+                    &targets.colour.default_view,
+                    &targets.distance.default_view,
+                    &history.read.default_view,
+                    &temporal.sampler,
+                    temporal_uniforms,
+                )),
+            ))
+        }
+        _ => None,
+    };
 
     let diagnostics = ctx.diagnostic_recorder();
     let diagnostics = diagnostics.as_deref();
     let time_span = diagnostics.time_span(ctx.command_encoder(), "cloud_march");
     ctx.command_encoder().push_debug_group("cloud_march");
-    fn clear(view: &TextureView, value: LinearRgba) -> RenderPassColorAttachment<'_> {
-        RenderPassColorAttachment {
-            view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: Operations {
-                load: LoadOp::Clear(value.into()),
-                store: StoreOp::Store,
-            },
-        }
-    }
+    let offset = view_offset.offset;
     if let (Some((shaft_target, shaft_pipeline)), Some(shaft_bind_group)) =
         (shafts, &shaft_bind_group)
     {
-        let mut pass = ctx
-            .command_encoder()
-            .begin_render_pass(&RenderPassDescriptor {
-                label: Some("cloud_shafts"),
-                color_attachments: &[Some(clear(
-                    &shaft_target.factors.default_view,
-                    LinearRgba::NONE,
-                ))],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-        pass.set_pipeline(shaft_pipeline);
-        pass.set_bind_group(0, shaft_bind_group, &[view_offset.offset]);
-        pass.draw(0..3, 0..1);
+        let attachment = clear(&shaft_target.factors.default_view, LinearRgba::NONE);
+        fullscreen_pass(
+            &mut ctx,
+            "cloud_shafts",
+            &[Some(attachment)],
+            shaft_pipeline,
+            shaft_bind_group,
+            offset,
+        );
         stats.views_with_shafts += 1;
     }
-    {
-        let attachments = match &upsample {
-            Some((targets, ..)) => vec![
-                Some(clear(
-                    &targets.colour.default_view,
-                    LinearRgba::new(0.0, 0.0, 0.0, 1.0),
-                )),
-                Some(clear(&targets.distance.default_view, LinearRgba::NONE)),
-            ],
-            None => vec![Some(target.get_color_attachment())],
-        };
-        let mut pass = ctx
-            .command_encoder()
-            .begin_render_pass(&RenderPassDescriptor {
-                label: Some("cloud_march"),
-                color_attachments: &attachments,
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-        pass.set_pipeline(render_pipeline);
-        pass.set_bind_group(0, &bind_group, &[view_offset.offset]);
-        pass.draw(0..3, 0..1);
-    }
-    if let (Some((_, _, upsample_pipeline)), Some(upsample_bind_group)) =
-        (&upsample, &upsample_bind_group)
-    {
-        let mut pass = ctx
-            .command_encoder()
-            .begin_render_pass(&RenderPassDescriptor {
-                label: Some("cloud_upsample"),
-                color_attachments: &[Some(target.get_color_attachment())],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-        pass.set_pipeline(upsample_pipeline);
-        pass.set_bind_group(0, upsample_bind_group, &[view_offset.offset]);
-        pass.draw(0..3, 0..1);
-        stats.views_upsampled += 1;
+    let march_attachments = match &finish {
+        Finish::Upsample { targets, .. } | Finish::Temporal { targets, .. } => vec![
+            Some(clear(
+                &targets.colour.default_view,
+                LinearRgba::new(0.0, 0.0, 0.0, 1.0),
+            )),
+            Some(clear(&targets.distance.default_view, LinearRgba::NONE)),
+        ],
+        Finish::Direct => vec![Some(target.get_color_attachment())],
+    };
+    fullscreen_pass(
+        &mut ctx,
+        "cloud_march",
+        &march_attachments,
+        render_pipeline,
+        &bind_group,
+        offset,
+    );
+    match (&finish, &temporal_bind_group) {
+        (Finish::Upsample { targets, pipeline }, _) => {
+            let group = upsample_bind_group(
+                "cloud_upsample_bind_group",
+                &targets.colour.default_view,
+                &targets.distance.default_view,
+            );
+            let attachment = target.get_color_attachment();
+            fullscreen_pass(
+                &mut ctx,
+                "cloud_upsample",
+                &[Some(attachment)],
+                pipeline,
+                &group,
+                offset,
+            );
+            stats.views_upsampled += 1;
+        }
+        (
+            Finish::Temporal {
+                targets,
+                history,
+                resolve,
+                composite,
+            },
+            Some(temporal_group),
+        ) => {
+            let attachment = clear(&history.write.default_view, LinearRgba::NONE);
+            fullscreen_pass(
+                &mut ctx,
+                "cloud_temporal",
+                &[Some(attachment)],
+                resolve,
+                temporal_group,
+                offset,
+            );
+            let group = upsample_bind_group(
+                "cloud_history_composite_bind_group",
+                &history.write.default_view,
+                &targets.distance.default_view,
+            );
+            let attachment = target.get_color_attachment();
+            fullscreen_pass(
+                &mut ctx,
+                "cloud_history_composite",
+                &[Some(attachment)],
+                composite,
+                &group,
+                offset,
+            );
+            stats.views_accumulated += 1;
+        }
+        _ => {}
     }
     ctx.command_encoder().pop_debug_group();
     time_span.end(ctx.command_encoder());

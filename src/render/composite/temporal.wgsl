@@ -1,0 +1,158 @@
+// Temporal accumulation of the cloud march: blends this frame's march (at the march's
+// resolution, read with the depth-aware upsample's weights) into a full-resolution history of
+// (L, T), found where this pixel's content was last frame and clamped to the new frame's 3 x 3
+// neighbourhood. Writes the new history; `upsample.wgsl`'s `copy` entry then composites it.
+// CPU twin: `reproject` and `temporal_resolve` in `src/reference/composite.rs` (whose module docs
+// explain the method). Rust side: `src/render/composite/mod.rs`.
+
+#import bevy_render::view::View
+#import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
+#import bevy_cloudscape::composite::{
+    FAR_AWAY, MIN_WEIGHT_SUM, depth_weight, footprint, footprint_texel, footprint_weight,
+}
+
+// Mirror in Rust: `GpuTemporalUniforms` (80 bytes).
+struct TemporalUniforms {
+    // Last frame's clip space from a point relative to this frame's camera (world axes).
+    previous_clip_from_relative: mat4x4<f32>,
+    // Weight of the new frame, 0-1.
+    blend: f32,
+    // 1: the history holds last frame of this view; 0: start over.
+    valid: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+@group(0) @binding(0) var<uniform> view: View;
+#ifdef MULTISAMPLED
+@group(0) @binding(1) var depth_prepass: texture_depth_multisampled_2d;
+#else
+@group(0) @binding(1) var depth_prepass: texture_depth_2d;
+#endif
+// This frame's march: (L, T), and (where the ray stopped, where its content lies) in metres.
+@group(0) @binding(2) var march_colour: texture_2d<f32>;
+@group(0) @binding(3) var march_distance: texture_2d<f32>;
+@group(0) @binding(4) var history: texture_2d<f32>;
+@group(0) @binding(5) var history_sampler: sampler;
+@group(0) @binding(6) var<uniform> temporal: TemporalUniforms;
+
+// Rust: `reproject`.
+fn reproject(direction: vec3<f32>, distance: f32) -> vec3<f32> {
+    var point = vec4<f32>(direction * distance, 1.0);
+    if distance >= FAR_AWAY {
+        point = vec4<f32>(direction, 0.0);
+    }
+    let clip = temporal.previous_clip_from_relative * point;
+    if clip.w <= 0.0 {
+        return vec3<f32>(0.0, 0.0, 0.0);
+    }
+    let ndc = clip.xy / clip.w;
+    let uv = vec2<f32>(0.5 * ndc.x + 0.5, 0.5 - 0.5 * ndc.y);
+    let inside = all(uv >= vec2<f32>(0.0)) && all(uv <= vec2<f32>(1.0));
+    return vec3<f32>(uv, select(0.0, 1.0, inside));
+}
+
+// The history at `uv` with a Catmull-Rom filter: sharper than bilinear, so reprojecting every
+// frame does not blur the clouds. Nine bilinear reads, the middle two texels of each axis
+// merged into one read at their weighted position; negative lobes can overshoot, and the
+// neighbourhood clamp after it bounds that.
+fn sample_history(uv: vec2<f32>) -> vec4<f32> {
+    let size = vec2<f32>(textureDimensions(history));
+    let position = uv * size - 0.5;
+    let base = floor(position);
+    let f = position - base;
+    // Catmull-Rom weights of the texels at base - 1, base, base + 1, base + 2.
+    let w0 = f * (-0.5 + f * (1.0 - 0.5 * f));
+    let w1 = 1.0 + f * f * (-2.5 + 1.5 * f);
+    let w2 = f * (0.5 + f * (2.0 - 1.5 * f));
+    let w3 = f * f * (-0.5 + 0.5 * f);
+    let w12 = w1 + w2;
+    let offset12 = w2 / max(w12, vec2<f32>(1e-6));
+    let t0 = (base - 0.5) / size;
+    let t12 = (base + 0.5 + offset12) / size;
+    let t3 = (base + 2.5) / size;
+    var sum = vec4<f32>(0.0);
+    var weight = 0.0;
+    let xs = array<f32, 3>(t0.x, t12.x, t3.x);
+    let ys = array<f32, 3>(t0.y, t12.y, t3.y);
+    let wx = array<f32, 3>(w0.x, w12.x, w3.x);
+    let wy = array<f32, 3>(w0.y, w12.y, w3.y);
+    for (var j = 0; j < 3; j++) {
+        for (var i = 0; i < 3; i++) {
+            let w = wx[i] * wy[j];
+            sum += w * textureSampleLevel(history, history_sampler, vec2<f32>(xs[i], ys[j]), 0.0);
+            weight += w;
+        }
+    }
+    return sum / weight;
+}
+
+@fragment
+fn temporal_resolve(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
+    // This pixel's ray and where it stops (as in upsample.wgsl).
+    let depth = textureLoad(depth_prepass, vec2<i32>(in.position.xy), 0);
+    let ndc = vec2<f32>(in.uv.x * 2.0 - 1.0, 1.0 - in.uv.y * 2.0);
+    var distance = FAR_AWAY;
+    if depth > 0.0 {
+        let surface_view = view.view_from_clip * vec4<f32>(ndc, depth, 1.0);
+        distance = length(surface_view.xyz / surface_view.w);
+    }
+    // In view space, then rotated (as `view_direction` in march.wgsl, for precision).
+    let near_view = view.view_from_clip * vec4<f32>(ndc, 1.0, 1.0);
+    let direction = normalize((view.world_from_view * vec4<f32>(near_view.xyz / near_view.w, 0.0)).xyz);
+
+    // The new frame at this pixel: the upsample's weights; where its content lies, from the
+    // tap that counts most.
+    let size = vec2<i32>(textureDimensions(march_colour));
+    let f = footprint(in.uv, size);
+    var sum = vec4<f32>(0.0);
+    var weight_sum = 0.0;
+    var nearest = vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    var nearest_gap = FAR_AWAY;
+    var content = FAR_AWAY;
+    var best = -1.0;
+    for (var k = 0; k < 4; k++) {
+        let texel = footprint_texel(f, k, size);
+        let colour = textureLoad(march_colour, texel, 0);
+        let tap = textureLoad(march_distance, texel, 0).xy;
+        let weight = footprint_weight(f, k) * depth_weight(tap.x, distance);
+        sum += weight * colour;
+        weight_sum += weight;
+        let gap = abs(tap.x - distance);
+        if gap < nearest_gap {
+            nearest_gap = gap;
+            nearest = colour;
+        }
+        if weight > best {
+            best = weight;
+            content = tap.y;
+        }
+    }
+    var current = nearest;
+    if weight_sum >= MIN_WEIGHT_SUM {
+        current = sum / weight_sum;
+    }
+
+    // The new frame's range around this pixel, at the march's resolution.
+    let centre = clamp(vec2<i32>(in.uv * vec2<f32>(size)), vec2<i32>(0), size - 1);
+    var lo = current;
+    var hi = current;
+    for (var dy = -1; dy <= 1; dy++) {
+        for (var dx = -1; dx <= 1; dx++) {
+            let texel = clamp(centre + vec2<i32>(dx, dy), vec2<i32>(0), size - 1);
+            let colour = textureLoad(march_colour, texel, 0);
+            lo = min(lo, colour);
+            hi = max(hi, colour);
+        }
+    }
+
+    // Rust: `temporal_resolve`.
+    let previous = reproject(direction, content);
+    if temporal.valid == 0u || previous.z == 0.0 {
+        return current;
+    }
+    let old = sample_history(previous.xy);
+    let clamped = clamp(old, lo, hi);
+    let alpha = clamp(temporal.blend, 0.0, 1.0);
+    return mix(clamped, current, alpha);
+}
