@@ -39,7 +39,7 @@
 //! | `--out PATH` | the PNG; with `--frames`, a folder of `frame_000.png`, `frame_001.png`, … | `bern.png`, `bern_frames` |
 //! | `--width W`, `--height H` | headless image size, pixels | 1280 × 720 |
 //! | `--frames N`, `--step D` | headless time-lapse: `N` images `D` apart (`30s`, `10m`, `1h`, `1d`) | one image, `10m` |
-//! | `--warmup N` | frames rendered before the first image | 8 |
+//! | `--warmup N` | frames rendered before the first image (the clouds' temporal accumulation settles in about 20) | 24 |
 //! | `--photos DIR` | photos to compare with, see below | none |
 //! | `--photo-opacity X` | opacity of the photo overlay, 0–1 | 0.5 |
 //! | `--photo-wiper X` | fraction of the width, from the left, that shows the photo | 1 |
@@ -114,8 +114,12 @@ const PITCH_DEG: f32 = -2.0;
 const CLOCK_SPEEDS: [f64; 3] = [1.0, 60.0, 3600.0];
 /// Camera exposure, EV100 (`--ev100`).
 const DEFAULT_EV100: f32 = 14.0;
-/// Frames between two time-lapse images, for the atmosphere LUTs to follow the sun.
-const SETTLE_FRAMES: u32 = 3;
+/// Frames between two time-lapse images, for the atmosphere LUTs to follow the sun and the
+/// clouds' temporal accumulation (a blend of 0.1) to settle on the new time.
+const SETTLE_FRAMES: u32 = 16;
+/// Frames before the first headless image when `--warmup` is not given: the pipelines and LUTs
+/// need a few, and the clouds' temporal accumulation about twenty to settle.
+const DEFAULT_WARMUP: u32 = 24;
 
 const USAGE: &str = "usage: bern [--camera gurten|bantiger] [--time RFC3339] [--headless] \
                      [--out PATH] [--width W] [--height H] [--frames N --step 10m] [--warmup N] \
@@ -322,9 +326,7 @@ fn parse_options(
         }
         Ok(true)
     })?;
-    if let Some(frames) = warmup {
-        args.frames = frames;
-    }
+    args.frames = warmup.unwrap_or(DEFAULT_WARMUP);
     if options.shots.is_some() {
         if !args.headless {
             return Err("--frames makes a headless time-lapse: add --headless".into());

@@ -349,6 +349,16 @@ impl CloudRig {
             let direction = world_from_view.transform_vector3(near.truncate() / near.w);
             direction.normalize().as_dvec3().to_array()
         };
+        // Where a sky ray ends for the shaft factors' upsample (the ground, or the sky).
+        let ray_end = |direction: [f64; 3]| {
+            shaft_ray_end_m(
+                &view.settings,
+                view.settings.camera_altitude_m,
+                view.settings.camera_up,
+                direction,
+                f64::INFINITY,
+            )
+        };
         // The shaft pass: factors at the reduced resolution (the rig has no geometry: every ray
         // ends in the sky).
         let shafts = shadow
@@ -377,13 +387,7 @@ impl CloudRig {
                             map,
                         );
                         values.push([f.below, f.above]);
-                        distances_m.push(shaft_ray_end_m(
-                            &view.settings,
-                            view.settings.camera_altitude_m,
-                            view.settings.camera_up,
-                            direction,
-                            f64::INFINITY,
-                        ));
+                        distances_m.push(ray_end(direction));
                     }
                 }
                 let image = LowResImage {
@@ -425,15 +429,11 @@ impl CloudRig {
                     jitter,
                     match (&shafts, shadow) {
                         (Some((image, split)), _) => {
-                            let end = shaft_ray_end_m(
-                                &view.settings,
-                                view.settings.camera_altitude_m,
-                                view.settings.camera_up,
-                                direction,
-                                f64::INFINITY,
+                            let [below, above] = upsample(
+                                image,
+                                [f64::from(uv.x), f64::from(uv.y)],
+                                ray_end(direction),
                             );
-                            let [below, above] =
-                                upsample(image, [f64::from(uv.x), f64::from(uv.y)], end);
                             HazeSun::Shafts(ShaftFactors {
                                 below,
                                 above,

@@ -306,9 +306,8 @@ fn haze_steps(
 
 /// The [`ShaftFactors`] of one view ray: [`HazeSettings::shaft_steps`] haze samples (the same
 /// as [`march_haze`]'s where that equals [`HazeSettings::steps`]) read the sun's transmittance
-/// from `map`, or
-/// [`HazeSettings::sun_transmittance`] beyond it, and are averaged with their weights below and
-/// above the lowest cloud base. A part the ray does not reach gets the mean shade. WGSL twin:
+/// from `map`, or [`HazeSettings::sun_transmittance`] beyond it, and are averaged with their
+/// weights below and above the lowest cloud base. A part the ray does not reach gets the mean shade. WGSL twin:
 /// `shaft_factors`, run by the reduced-resolution shaft pass (`march.wgsl`'s `shafts` entry).
 #[allow(clippy::too_many_arguments)]
 pub fn shaft_factors(

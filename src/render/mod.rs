@@ -61,8 +61,8 @@ pub struct VolumetricClouds {
     /// Multiple-scattering octaves (Wrenninge 2013; 1 = single scattering only, up to 8).
     pub multiple_scattering_octaves: u32,
     /// Jitter the ray start per pixel and frame (blue noise, animated with the golden ratio) to
-    /// trade banding
-    /// for fine noise. Default true.
+    /// trade banding for fine noise, which [`VolumetricClouds::temporal_blend`] averages away.
+    /// Default true.
     pub jitter: bool,
     /// Fraction of the view's resolution the march runs at, per axis (0.25–1). Below 1 the
     /// clouds are marched into a smaller image and upsampled with depth awareness, so they do
