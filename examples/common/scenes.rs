@@ -341,7 +341,7 @@ impl CloudRig {
             .unwrap()
             .to_matrix();
         let exposure = f64::from(EXPOSURE.exposure());
-        // The same ray as march.wgsl's `view_direction`: through the pixel centre `uv` on the
+        // The same ray as `view_direction` in composite.wgsl: through the pixel centre `uv` on the
         // near plane, in view space, rotated into the world.
         let ray = |uv: Vec2| {
             let ndc = Vec2::new(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0);

@@ -69,49 +69,53 @@ pub struct LowResImage<const N: usize> {
     pub distances_m: Vec<f64>,
 }
 
+/// The normalised weights of the four texels around a pixel, whose rays stopped at `taps_m`,
+/// for a pixel whose ray stops at `pixel_m` (all as [`stored_distance`]): `bilinear` times
+/// [`depth_weight`], or, where no texel saw this pixel's surface (total below
+/// [`MIN_WEIGHT_SUM`]), the texel nearest in distance alone (the first of equals). WGSL twin:
+/// `upsample_weights`.
+pub fn upsample_weights(bilinear: [f64; 4], taps_m: [f64; 4], pixel_m: f64) -> [f64; 4] {
+    let weights: [f64; 4] = std::array::from_fn(|k| bilinear[k] * depth_weight(taps_m[k], pixel_m));
+    let sum: f64 = weights.iter().sum();
+    if sum < MIN_WEIGHT_SUM {
+        let gap = |k: usize| (taps_m[k] - pixel_m).abs();
+        let nearest = (1..4).fold(0, |best, k| if gap(k) < gap(best) { k } else { best });
+        return std::array::from_fn(|k| f64::from(u8::from(k == nearest)));
+    }
+    weights.map(|w| w / sum)
+}
+
 /// The value of `image` at the full-resolution pixel centred on `uv` (0–1, origin top left)
-/// whose ray stops at `distance_m` (as [`stored_distance`]): see the module docs. WGSL twin: the
-/// loop in `upsample.wgsl`, and `upsampled_shafts` in `march.wgsl`.
+/// whose ray stops at `distance_m` (as [`stored_distance`]): the four nearest texels (clamped to
+/// the image) blended with [`upsample_weights`]. WGSL twin: the callers of `upsample_weights`
+/// (`upsample.wgsl`, `temporal.wgsl`, `upsampled_shafts` in `march.wgsl`).
 pub fn upsample<const N: usize>(image: &LowResImage<N>, uv: [f64; 2], distance_m: f64) -> [f64; N] {
     let [width, height] = image.size.map(|s| s.max(1) as i64);
     let position = [uv[0] * width as f64 - 0.5, uv[1] * height as f64 - 0.5];
     let base = position.map(f64::floor);
     let fraction = [position[0] - base[0], position[1] - base[1]];
-    let mut sum = [0.0; N];
-    let mut weight_sum = 0.0;
-    let mut nearest = [0.0; N];
-    let mut nearest_gap = f64::INFINITY;
-    for k in 0..4 {
-        let offset = [k & 1, k >> 1];
-        let x = (base[0] as i64 + offset[0]).clamp(0, width - 1);
-        let y = (base[1] as i64 + offset[1]).clamp(0, height - 1);
-        let index = (y * width + x) as usize;
-        let (value, tap) = (image.values[index], image.distances_m[index]);
-        let bilinear = [0, 1]
-            .map(|axis| {
-                if offset[axis] == 1 {
-                    fraction[axis]
-                } else {
-                    1.0 - fraction[axis]
-                }
-            })
-            .iter()
-            .product::<f64>();
-        let weight = bilinear * depth_weight(tap, distance_m);
-        for (s, v) in sum.iter_mut().zip(value) {
-            *s += weight * v;
-        }
-        weight_sum += weight;
-        let gap = (tap - distance_m).abs();
-        if gap < nearest_gap {
-            nearest_gap = gap;
-            nearest = value;
-        }
-    }
-    if weight_sum < MIN_WEIGHT_SUM {
-        return nearest;
-    }
-    sum.map(|s| s / weight_sum)
+    // Texel k is base + (k & 1, k >> 1), as the WGSL `footprint_texel`.
+    let texels: [usize; 4] = std::array::from_fn(|k| {
+        let x = (base[0] as i64 + (k & 1) as i64).clamp(0, width - 1);
+        let y = (base[1] as i64 + (k >> 1) as i64).clamp(0, height - 1);
+        (y * width + x) as usize
+    });
+    let bilinear = std::array::from_fn(|k| {
+        let along = |axis: usize, offset: usize| {
+            if offset == 1 {
+                fraction[axis]
+            } else {
+                1.0 - fraction[axis]
+            }
+        };
+        along(0, k & 1) * along(1, k >> 1)
+    });
+    let weights = upsample_weights(bilinear, texels.map(|t| image.distances_m[t]), distance_m);
+    std::array::from_fn(|c| {
+        (0..4)
+            .map(|k| weights[k] * image.values[texels[k]][c])
+            .sum()
+    })
 }
 
 /// Where the content of a pixel was in last frame's image, as `uv` (0–1, origin top left), or

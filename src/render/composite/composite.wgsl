@@ -1,7 +1,8 @@
 #define_import_path bevy_cloudscape::composite
 
-// The depth-aware upsample's weights, shared by `upsample.wgsl` (the reduced-resolution march)
-// and `march.wgsl` (the reduced-resolution light-shaft factors).
+// The view rays of a fullscreen pass and the depth-aware upsample's weights, shared by
+// `upsample.wgsl` (the reduced-resolution march), `temporal.wgsl` (the temporal accumulation) and
+// `march.wgsl` (its rays, and the reduced-resolution light-shaft factors).
 // CPU twin: `src/reference/composite.rs` (same names; its module docs explain the weights).
 // Rust side: `src/render/composite/mod.rs`.
 
@@ -42,4 +43,52 @@ fn footprint_weight(f: Footprint, k: i32) -> f32 {
     let offset = vec2<i32>(k & 1, k >> 1);
     return select(1.0 - f.fraction.x, f.fraction.x, offset.x == 1)
         * select(1.0 - f.fraction.y, f.fraction.y, offset.y == 1);
+}
+
+// Normalised weights of the four texels of `f` (texel k: `footprint_texel(f, k, size)`) whose
+// rays stopped at `taps_m`, for a pixel whose ray stops at `pixel_m`: bilinear times
+// `depth_weight`, or, where no texel saw this pixel's surface, the texel nearest in distance
+// alone (the first of equals). Rust: `upsample_weights`.
+fn upsample_weights(f: Footprint, taps_m: vec4<f32>, pixel_m: f32) -> vec4<f32> {
+    var taps = taps_m;
+    var weights = vec4<f32>(0.0);
+    var nearest = 0;
+    for (var k = 0; k < 4; k++) {
+        weights[k] = footprint_weight(f, k) * depth_weight(taps[k], pixel_m);
+        if abs(taps[k] - pixel_m) < abs(taps[nearest] - pixel_m) {
+            nearest = k;
+        }
+    }
+    let sum = dot(weights, vec4<f32>(1.0));
+    if sum < MIN_WEIGHT_SUM {
+        var one = vec4<f32>(0.0);
+        one[nearest] = 1.0;
+        return one;
+    }
+    return weights / sum;
+}
+
+// NDC of a fullscreen triangle's `uv` (origin top left).
+fn uv_to_ndc(uv: vec2<f32>) -> vec2<f32> {
+    return vec2<f32>(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0);
+}
+
+// The unit world direction of the view ray through `ndc`. Built in view space and rotated, not
+// as a near-plane point minus the camera in world space: a camera 8 km from the origin holds
+// its world position to a millimetre in f32, which against a 0.1 m near plane turns the
+// directions by up to half a degree, in blocks. Rust (the test rig): `CloudRig`'s `ray`.
+fn view_direction(view_from_clip: mat4x4<f32>, world_from_view: mat4x4<f32>, ndc: vec2<f32>) -> vec3<f32> {
+    // Bevy's reverse-Z puts the near plane at NDC depth 1; the far plane is at infinity.
+    let near_view = view_from_clip * vec4<f32>(ndc, 1.0, 1.0);
+    return normalize((world_from_view * vec4<f32>(near_view.xyz / near_view.w, 0.0)).xyz);
+}
+
+// How far the view ray through `ndc` goes before it meets the depth prepass's `depth`: the
+// length of the surface's view-space position, or FAR_AWAY for depth 0 (the sky).
+fn surface_distance(view_from_clip: mat4x4<f32>, ndc: vec2<f32>, depth: f32) -> f32 {
+    if depth <= 0.0 {
+        return FAR_AWAY;
+    }
+    let surface_view = view_from_clip * vec4<f32>(ndc, depth, 1.0);
+    return length(surface_view.xyz / surface_view.w);
 }

@@ -63,7 +63,7 @@ use bevy::{
         texture::{CachedTexture, TextureCache},
         view::{ExtractedView, ViewTarget, ViewUniform},
     },
-    shader::load_shader_library,
+    shader::{ShaderDefVal, load_shader_library},
 };
 
 use super::march::ExtractedCloudView;
@@ -93,6 +93,46 @@ pub(crate) fn depth_binding(multisampled: bool) -> BindGroupLayoutEntryBuilder {
         texture_depth_2d_multisampled()
     } else {
         texture_depth_2d()
+    }
+}
+
+/// A bind group layout in its two forms, for a single-sampled and for a multisampled depth
+/// prepass (the shaders' `MULTISAMPLED` def).
+#[derive(Clone)]
+pub(crate) struct DepthLayouts {
+    single: BindGroupLayoutDescriptor,
+    multisampled: BindGroupLayoutDescriptor,
+}
+
+impl DepthLayouts {
+    /// Both forms of `layout(label, multisampled)`.
+    pub(crate) fn new(
+        layout: fn(&'static str, bool) -> BindGroupLayoutDescriptor,
+        label: &'static str,
+        label_multisampled: &'static str,
+    ) -> Self {
+        Self {
+            single: layout(label, false),
+            multisampled: layout(label_multisampled, true),
+        }
+    }
+
+    /// The form for a view whose depth prepass is (or is not) multisampled.
+    pub(crate) fn get(&self, multisampled: bool) -> &BindGroupLayoutDescriptor {
+        if multisampled {
+            &self.multisampled
+        } else {
+            &self.single
+        }
+    }
+}
+
+/// The shader defs of a pass reading a (multisampled or not) depth prepass.
+pub(crate) fn depth_shader_defs(multisampled: bool) -> Vec<ShaderDefVal> {
+    if multisampled {
+        vec!["MULTISAMPLED".into()]
+    } else {
+        Vec::new()
     }
 }
 
@@ -132,8 +172,11 @@ pub(crate) fn init_cloud_upsample_pipeline(
     fullscreen: Res<FullscreenShader>,
 ) {
     commands.insert_resource(CloudUpsamplePipeline {
-        layout: upsample_layout("cloud_upsample_layout", false),
-        layout_multisampled: upsample_layout("cloud_upsample_layout_multisampled", true),
+        layouts: DepthLayouts::new(
+            upsample_layout,
+            "cloud_upsample_layout",
+            "cloud_upsample_layout_multisampled",
+        ),
         fullscreen: fullscreen.clone(),
         shader: load_embedded_asset!(asset_server.as_ref(), "upsample.wgsl"),
     });
@@ -142,8 +185,7 @@ pub(crate) fn init_cloud_upsample_pipeline(
 /// Layouts and shader of the depth-aware upsample that composites a reduced-resolution march.
 #[derive(Resource)]
 pub struct CloudUpsamplePipeline {
-    pub(crate) layout: BindGroupLayoutDescriptor,
-    pub(crate) layout_multisampled: BindGroupLayoutDescriptor,
+    pub(crate) layouts: DepthLayouts,
     fullscreen: FullscreenShader,
     shader: Handle<Shader>,
 }
@@ -165,22 +207,14 @@ impl SpecializedRenderPipeline for CloudUpsamplePipeline {
 
     fn specialize(&self, key: Self::Key) -> RenderPipelineDescriptor {
         let multisampled = key.samples > 1;
-        let shader_defs = if multisampled {
-            vec!["MULTISAMPLED".into()]
-        } else {
-            Vec::new()
-        };
+        let shader_defs = depth_shader_defs(multisampled);
         RenderPipelineDescriptor {
             label: Some(Cow::Borrowed(if key.copy {
                 "cloud_history_composite_pipeline"
             } else {
                 "cloud_upsample_pipeline"
             })),
-            layout: vec![if multisampled {
-                self.layout_multisampled.clone()
-            } else {
-                self.layout.clone()
-            }],
+            layout: vec![self.layouts.get(multisampled).clone()],
             vertex: self.fullscreen.to_vertex_state(),
             fragment: Some(FragmentState {
                 shader: self.shader.clone(),
@@ -250,8 +284,7 @@ impl ViewPose {
 /// Layouts, sampler and shader of the temporal accumulation (`temporal.wgsl`).
 #[derive(Resource)]
 pub struct CloudTemporalPipeline {
-    pub(crate) layout: BindGroupLayoutDescriptor,
-    pub(crate) layout_multisampled: BindGroupLayoutDescriptor,
+    pub(crate) layouts: DepthLayouts,
     pub(crate) sampler: Sampler,
     fullscreen: FullscreenShader,
     shader: Handle<Shader>,
@@ -289,8 +322,11 @@ pub(crate) fn init_cloud_temporal_pipeline(
         ..default()
     });
     commands.insert_resource(CloudTemporalPipeline {
-        layout: temporal_layout("cloud_temporal_layout", false),
-        layout_multisampled: temporal_layout("cloud_temporal_layout_multisampled", true),
+        layouts: DepthLayouts::new(
+            temporal_layout,
+            "cloud_temporal_layout",
+            "cloud_temporal_layout_multisampled",
+        ),
         sampler,
         fullscreen: fullscreen.clone(),
         shader: load_embedded_asset!(asset_server.as_ref(), "temporal.wgsl"),
@@ -305,19 +341,11 @@ impl SpecializedRenderPipeline for CloudTemporalPipeline {
         let multisampled = samples > 1;
         RenderPipelineDescriptor {
             label: Some(Cow::Borrowed("cloud_temporal_pipeline")),
-            layout: vec![if multisampled {
-                self.layout_multisampled.clone()
-            } else {
-                self.layout.clone()
-            }],
+            layout: vec![self.layouts.get(multisampled).clone()],
             vertex: self.fullscreen.to_vertex_state(),
             fragment: Some(FragmentState {
                 shader: self.shader.clone(),
-                shader_defs: if multisampled {
-                    vec!["MULTISAMPLED".into()]
-                } else {
-                    Vec::new()
-                },
+                shader_defs: depth_shader_defs(multisampled),
                 entry_point: Some(Cow::Borrowed("temporal_resolve")),
                 targets: vec![Some(ColorTargetState::from(HISTORY_FORMAT))],
             }),

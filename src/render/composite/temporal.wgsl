@@ -8,7 +8,8 @@
 #import bevy_render::view::View
 #import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
 #import bevy_cloudscape::composite::{
-    FAR_AWAY, MIN_WEIGHT_SUM, depth_weight, footprint, footprint_texel, footprint_weight,
+    FAR_AWAY, footprint, footprint_texel, upsample_weights, uv_to_ndc, view_direction,
+    surface_distance,
 }
 
 // Mirror in Rust: `GpuTemporalUniforms` (80 bytes).
@@ -89,49 +90,33 @@ fn sample_history(uv: vec2<f32>) -> vec4<f32> {
 
 @fragment
 fn temporal_resolve(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
-    // This pixel's ray and where it stops (as in upsample.wgsl).
+    // This pixel's ray and where it stops.
+    let ndc = uv_to_ndc(in.uv);
     let depth = textureLoad(depth_prepass, vec2<i32>(in.position.xy), 0);
-    let ndc = vec2<f32>(in.uv.x * 2.0 - 1.0, 1.0 - in.uv.y * 2.0);
-    var distance = FAR_AWAY;
-    if depth > 0.0 {
-        let surface_view = view.view_from_clip * vec4<f32>(ndc, depth, 1.0);
-        distance = length(surface_view.xyz / surface_view.w);
-    }
-    // In view space, then rotated (as `view_direction` in march.wgsl, for precision).
-    let near_view = view.view_from_clip * vec4<f32>(ndc, 1.0, 1.0);
-    let direction = normalize((view.world_from_view * vec4<f32>(near_view.xyz / near_view.w, 0.0)).xyz);
+    let distance = surface_distance(view.view_from_clip, ndc, depth);
+    let direction = view_direction(view.view_from_clip, view.world_from_view, ndc);
 
-    // The new frame at this pixel: the upsample's weights; where its content lies, from the
-    // tap that counts most.
+    // The new frame at this pixel, upsampled; where its content lies, from the tap that counts
+    // most.
     let size = vec2<i32>(textureDimensions(march_colour));
     let f = footprint(in.uv, size);
-    var sum = vec4<f32>(0.0);
-    var weight_sum = 0.0;
-    var nearest = vec4<f32>(0.0, 0.0, 0.0, 1.0);
-    var nearest_gap = FAR_AWAY;
-    var content = FAR_AWAY;
-    var best = -1.0;
+    var taps = vec4<f32>(0.0);
+    var contents = vec4<f32>(0.0);
     for (var k = 0; k < 4; k++) {
-        let texel = footprint_texel(f, k, size);
-        let colour = textureLoad(march_colour, texel, 0);
-        let tap = textureLoad(march_distance, texel, 0).xy;
-        let weight = footprint_weight(f, k) * depth_weight(tap.x, distance);
-        sum += weight * colour;
-        weight_sum += weight;
-        let gap = abs(tap.x - distance);
-        if gap < nearest_gap {
-            nearest_gap = gap;
-            nearest = colour;
-        }
-        if weight > best {
-            best = weight;
-            content = tap.y;
+        let tap = textureLoad(march_distance, footprint_texel(f, k, size), 0).xy;
+        taps[k] = tap.x;
+        contents[k] = tap.y;
+    }
+    let weights = upsample_weights(f, taps, distance);
+    var current = vec4<f32>(0.0);
+    var strongest = 0;
+    for (var k = 0; k < 4; k++) {
+        current += weights[k] * textureLoad(march_colour, footprint_texel(f, k, size), 0);
+        if weights[k] > weights[strongest] {
+            strongest = k;
         }
     }
-    var current = nearest;
-    if weight_sum >= MIN_WEIGHT_SUM {
-        current = sum / weight_sum;
-    }
+    let content = contents[strongest];
 
     // The new frame's range around this pixel, at the march's resolution.
     let centre = clamp(vec2<i32>(in.uv * vec2<f32>(size)), vec2<i32>(0), size - 1);

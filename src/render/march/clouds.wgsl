@@ -1,5 +1,9 @@
 #define_import_path bevy_cloudscape::clouds
 
+// f32 has no infinity literal: "no distance" / "the sky" is FAR_AWAY (Rust: f64::INFINITY).
+// Pass it, or any larger value, as `t_max` for sky pixels.
+#import bevy_cloudscape::composite::FAR_AWAY
+
 // The cloud ray-march: shell geometry on a curved planet, seed 002's density model, the light
 // march toward the sun and Hillaire 2016's energy-conserving integration. A shader library: the
 // entry shader imports it, declares @binding(0) `view: View` and @binding(1) the depth prepass,
@@ -200,9 +204,6 @@ const WEATHER_COVERAGE_RANGE: vec2<f32> = vec2<f32>(0.4, 0.95);
 const COVERAGE_EDGE_WIDTH: f32 = 0.25;
 const OVERCAST_COVERAGE: f32 = 0.9;
 const NO_HIT: f32 = -1.0;
-// f32 has no infinity literal: "no distance" / "the sky" is this (Rust: f64::INFINITY). Pass it,
-// or any larger value, as `t_max` for sky pixels.
-const FAR_AWAY: f32 = 3.0e38;
 // Below this optical thickness `mean_step_transmittance` uses its series (Rust: SERIES_LIMIT,
 // 1e-5 there because f64 has expm1).
 const SERIES_LIMIT: f32 = 0.1;

@@ -12,11 +12,10 @@
 
 #import bevy_render::view::View
 #import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
-#import bevy_cloudscape::clouds::{clouds, march_clouds, ray_start_jitter, FAR_AWAY}
+#import bevy_cloudscape::clouds::{clouds, march_clouds, ray_start_jitter}
 #import bevy_cloudscape::haze::{march_haze, composite_haze, shaft_factors, shaft_ray_end, haze}
 #import bevy_cloudscape::composite::{
-    MIN_WEIGHT_SUM, depth_weight, footprint, footprint_texel,
-    footprint_weight,
+    footprint, footprint_texel, upsample_weights, uv_to_ndc, view_direction, surface_distance,
 }
 
 @group(0) @binding(0) var<uniform> view: View;
@@ -41,15 +40,6 @@ struct MarchOutput {
 }
 #endif
 
-// The unit world direction of the view ray through `ndc`. Built in view space and rotated, not
-// as a near-plane point minus the camera in world space: a camera 8 km from the origin holds
-// its world position to a millimetre in f32, which against a 0.1 m near plane turns the
-// directions by up to half a degree, in blocks.
-fn view_direction(ndc: vec2<f32>) -> vec3<f32> {
-    let near_view = view.view_from_clip * vec4<f32>(ndc, 1.0, 1.0);
-    return normalize((view.world_from_view * vec4<f32>(near_view.xyz / near_view.w, 0.0)).xyz);
-}
-
 // The view ray through the fullscreen triangle's `uv`, and where it ends (the scene's depth, or
 // FAR_AWAY for the sky).
 struct ViewRay {
@@ -58,17 +48,11 @@ struct ViewRay {
 }
 
 fn view_ray(uv: vec2<f32>, depth: f32) -> ViewRay {
-    // Bevy's reverse-Z puts the near plane at NDC depth 1; the far plane is at infinity.
-    let ndc = vec2<f32>(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0);
-    let direction = view_direction(ndc);
-    // Depth 0 is the sky: march to infinity. Otherwise the ray ends at the surface, whose
-    // distance is the length of its view-space position.
-    var t_max = FAR_AWAY;
-    if depth > 0.0 {
-        let surface_view = view.view_from_clip * vec4<f32>(ndc, depth, 1.0);
-        t_max = length(surface_view.xyz / surface_view.w);
-    }
-    return ViewRay(direction, t_max);
+    let ndc = uv_to_ndc(uv);
+    return ViewRay(
+        view_direction(view.view_from_clip, view.world_from_view, ndc),
+        surface_distance(view.view_from_clip, ndc, depth),
+    );
 }
 
 // The depth at the full-resolution pixel under a reduced-resolution pixel's centre.
@@ -97,25 +81,16 @@ fn upsampled_shafts(uv: vec2<f32>, distance: f32) -> vec2<f32> {
     }
     let size = vec2<i32>(textureDimensions(shaft_texture));
     let f = footprint(uv, size);
-    var sum = vec2<f32>(0.0);
-    var weight_sum = 0.0;
-    var nearest = vec2<f32>(haze.sun_transmittance);
-    var nearest_gap = FAR_AWAY;
+    var taps = vec4<f32>(0.0);
     for (var k = 0; k < 4; k++) {
-        let tap = textureLoad(shaft_texture, footprint_texel(f, k, size), 0);
-        let weight = footprint_weight(f, k) * depth_weight(tap.z, distance);
-        sum += weight * tap.xy;
-        weight_sum += weight;
-        let gap = abs(tap.z - distance);
-        if gap < nearest_gap {
-            nearest_gap = gap;
-            nearest = tap.xy;
-        }
+        taps[k] = textureLoad(shaft_texture, footprint_texel(f, k, size), 0).z;
     }
-    if weight_sum < MIN_WEIGHT_SUM {
-        return nearest;
+    let weights = upsample_weights(f, taps, distance);
+    var sum = vec2<f32>(0.0);
+    for (var k = 0; k < 4; k++) {
+        sum += weights[k] * textureLoad(shaft_texture, footprint_texel(f, k, size), 0).xy;
     }
-    return sum / weight_sum;
+    return sum;
 }
 
 #ifdef LOW_RES

@@ -75,9 +75,10 @@ use super::{
     VolumetricClouds,
     composite::{
         COMPOSITE_BLEND, CloudHistory, CloudLowResTargets, CloudShaftTarget, CloudTemporalPipeline,
-        CloudUpsampleKey, CloudUpsamplePipeline, LOW_RES_COLOUR_FORMAT, LOW_RES_DISTANCE_FORMAT,
-        SHAFT_FORMAT, depth_binding, init_cloud_temporal_pipeline, init_cloud_upsample_pipeline,
-        load_composite_shaders, prepare_low_res_targets,
+        CloudUpsampleKey, CloudUpsamplePipeline, DepthLayouts, LOW_RES_COLOUR_FORMAT,
+        LOW_RES_DISTANCE_FORMAT, SHAFT_FORMAT, depth_binding, depth_shader_defs,
+        init_cloud_temporal_pipeline, init_cloud_upsample_pipeline, load_composite_shaders,
+        prepare_low_res_targets,
     },
     haze::{CloudShadowFrame, GpuHazeUniforms, Haze, haze_settings, load_haze_shader},
     noise::CloudNoiseTextures,
@@ -497,7 +498,7 @@ pub struct GpuCloudUniforms {
 }
 
 /// f32 has no infinity the shader can compare safely: "never" is this (WGSL: `FAR_AWAY`).
-const FAR_AWAY: f32 = 3.0e38;
+const FAR_AWAY: f32 = crate::reference::composite::FAR_AWAY as f32;
 
 /// `axis / |axis|²`: what a dot product with turns a position into the map's local coordinate.
 fn inverse_axis(axis: [f64; 3]) -> Vec4 {
@@ -774,8 +775,7 @@ fn prepare_cloud_view_buffers(
 /// Layouts, sampler and shader of the march pass.
 #[derive(Resource)]
 pub struct CloudMarchPipeline {
-    layout: BindGroupLayoutDescriptor,
-    layout_multisampled: BindGroupLayoutDescriptor,
+    layouts: DepthLayouts,
     fullscreen: FullscreenShader,
     shader: Handle<Shader>,
     /// The ray-start jitter's blue noise ([`blue_noise_map`]), `R32Float`.
@@ -789,8 +789,9 @@ pub struct CloudMarchPipelineKey {
     pub format: TextureFormat,
     /// MSAA sample count of the view (the depth prepass is multisampled when > 1).
     pub samples: u32,
-    /// March into the reduced-resolution targets ([`LOW_RES_COLOUR_FORMAT`],
-    /// [`LOW_RES_DISTANCE_FORMAT`]) for the upsample, instead of blending onto the view.
+    /// March into the targets ([`LOW_RES_COLOUR_FORMAT`], [`LOW_RES_DISTANCE_FORMAT`]) for the
+    /// upsample or the temporal accumulation, instead of blending onto the view (the shader's
+    /// `LOW_RES` def; the targets are at full size when only the accumulation needs them).
     pub low_res: bool,
     /// The light-shaft pass (entry `shafts`, into a [`SHAFT_FORMAT`] target) instead of the
     /// march.
@@ -853,8 +854,11 @@ fn init_cloud_march_pipeline(
         )
         .create_view(&TextureViewDescriptor::default());
     commands.insert_resource(CloudMarchPipeline {
-        layout: march_layout("cloud_march_layout", false),
-        layout_multisampled: march_layout("cloud_march_layout_multisampled", true),
+        layouts: DepthLayouts::new(
+            march_layout,
+            "cloud_march_layout",
+            "cloud_march_layout_multisampled",
+        ),
         fullscreen: fullscreen.clone(),
         shader: load_embedded_asset!(asset_server.as_ref(), "march.wgsl"),
         blue_noise,
@@ -866,10 +870,7 @@ impl SpecializedRenderPipeline for CloudMarchPipeline {
 
     fn specialize(&self, key: Self::Key) -> RenderPipelineDescriptor {
         let multisampled = key.samples > 1;
-        let mut shader_defs = Vec::new();
-        if multisampled {
-            shader_defs.push("MULTISAMPLED".into());
-        }
+        let mut shader_defs = depth_shader_defs(multisampled);
         let (entry, targets) = if key.shafts {
             ("shafts", vec![Some(ColorTargetState::from(SHAFT_FORMAT))])
         } else if key.low_res {
@@ -897,11 +898,7 @@ impl SpecializedRenderPipeline for CloudMarchPipeline {
             } else {
                 "cloud_march_pipeline"
             })),
-            layout: vec![if multisampled {
-                self.layout_multisampled.clone()
-            } else {
-                self.layout.clone()
-            }],
+            layout: vec![self.layouts.get(multisampled).clone()],
             vertex: self.fullscreen.to_vertex_state(),
             fragment: Some(FragmentState {
                 shader: self.shader.clone(),
@@ -1162,12 +1159,11 @@ fn march_cloud_layers(
     };
     let multisampled = msaa.samples() > 1;
     let device = ctx.render_device().clone();
-    let pick = |single: &BindGroupLayoutDescriptor, multi: &BindGroupLayoutDescriptor| {
-        pipeline_cache.get_bind_group_layout(if multisampled { multi } else { single })
-    };
+    let pick =
+        |layouts: &DepthLayouts| pipeline_cache.get_bind_group_layout(layouts.get(multisampled));
     // Binding 11 is the shaft pass's output for the march, and a stand-in for the shaft pass
     // itself (a texture may not be read and written in one pass).
-    let march_layout = pick(&pipeline.layout, &pipeline.layout_multisampled);
+    let march_layout = pick(&pipeline.layouts);
     let march_bind_group = |label: &'static str, shaft_view: &TextureView| {
         device.create_bind_group(
             label,
@@ -1194,7 +1190,7 @@ fn march_cloud_layers(
         shafts.map_or(stand_in, |(target, _)| &target.factors.default_view),
     );
     let shaft_bind_group = shafts.map(|_| march_bind_group("cloud_shaft_bind_group", stand_in));
-    let upsample_layout = pick(&upsample.layout, &upsample.layout_multisampled);
+    let upsample_layout = pick(&upsample.layouts);
     let upsample_bind_group = |label: &'static str, colour: &TextureView, distance| {
         device.create_bind_group(
             label,
@@ -1211,7 +1207,7 @@ fn march_cloud_layers(
             };
             Some(device.create_bind_group(
                 "cloud_temporal_bind_group",
-                &pick(&temporal.layout, &temporal.layout_multisampled),
+                &pick(&temporal.layouts),
                 &BindGroupEntries::sequential((
                     view_binding.clone(),
                     depth,
