@@ -235,7 +235,8 @@ pub enum HazeSun<'a> {
 /// haze contributes to the pixel (its scattering coefficient times the haze transmittance from
 /// the camera). Below the cloud base no cloud lies between the haze and the camera (for a
 /// camera below the clouds), so there the factor gives exactly the radiance that reading the
-/// map at every sample gives ([`HazeSun::PerSample`]); above it, the clouds' distance splits the
+/// map at the same samples gives ([`HazeSun::PerSample`] with [`HazeSettings::shaft_steps`] =
+/// [`HazeSettings::steps`]); above it, the clouds' distance splits the
 /// haze into front and back, and the factor spreads the sunlit fraction evenly over both.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ShaftFactors {

@@ -13,15 +13,15 @@
 //!
 //! The map is not read at full resolution. A shaft pass (the `shafts` entry of `march.wgsl`)
 //! runs first at [`VolumetricClouds::light_shaft_resolution_scale`] (a quarter per axis by
-//! default: a sixteenth of the rays). It marches the haze along each of its rays with the same
-//! samples the march uses, reads the map at each, and writes two
+//! default: a sixteenth of the rays). It marches the haze along each of its rays with the
+//! march's step spacing but more samples (below), reads the map at each, and writes two
 //! [`ShaftFactors`](crate::reference::haze::ShaftFactors): the mean sunlit fraction of the haze
 //! below the lowest cloud base and above it, each weighted by how much that haze shows in the
 //! pixel. The full-resolution march upsamples them with depth awareness
 //! ([`crate::render::composite`]) and lights its haze samples with them.
 //!
 //! Below the cloud base nothing lies between the haze and a camera under the clouds, so there
-//! the factor gives exactly what reading the map at the same samples would; above it the
+//! the factor gives what reading the map at the shaft pass's samples would; above it the
 //! clouds' distance splits the haze, and the factor spreads the sunlit fraction over both parts.
 //! The pass runs on few pixels, so it takes [`SHAFT_STEPS_PER_HAZE_STEP`] (4) times the march's
 //! haze samples, which keeps the noise of its jittered samples from showing as blocks.
@@ -42,7 +42,7 @@
 //! Nothing when [`Haze::visibility_m`] is infinite (the default) or 245 km or more: the march
 //! skips it, and with no visible cloud layer either the pass does not run. Otherwise
 //! [`VolumetricClouds::haze_steps`] samples per pixel, each one exponential, plus, with shafts,
-//! the shaft pass: the same samples with one filtered read of the shadow map each, on a
+//! the shaft pass: four times the samples with one filtered read of the shadow map each, on a
 //! sixteenth of the pixels, and four texel reads per pixel to upsample them.
 
 use bevy::{
