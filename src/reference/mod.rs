@@ -21,6 +21,8 @@
 //!   shadow map, and stacked with the clouds. GPU twin: `src/render/haze/haze.wgsl`.
 //! - [`composite`]: the depth-aware upsample of images rendered at a reduced resolution (the
 //!   march, the light-shaft factors). GPU twin: `src/render/composite/composite.wgsl`.
+//! - [`weather_map`]: each layer's local coverage per weather texel around the camera, which the
+//!   GPU caches once per frame for the march. GPU twin: `src/render/weather_map/weather_map.wgsl`.
 
 pub mod blue_noise;
 pub mod composite;
@@ -28,3 +30,4 @@ pub mod haze;
 pub mod noise;
 pub mod render;
 pub mod shadow;
+pub mod weather_map;

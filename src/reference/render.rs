@@ -30,7 +30,8 @@
 //!
 //! [`layer_density`]: the height fraction in the layer picks a density from the layer's
 //! profile (Aetherius' shape-altering curve, piecewise linear here); the weather noise sets a
-//! local coverage ([`local_coverage`]); the base noise (Perlin-Worley carved by Worley fBm,
+//! local coverage ([`local_coverage`] per weather texel, filtered by [`weather_coverage`]); the
+//! base noise (Perlin-Worley carved by Worley fBm,
 //! [`base_shape`]) times the profile is remapped by that coverage; the detail noise erodes the
 //! edges, wispy at the bottom and billowy at the top ([`detail_erosion`]). The result, 0–1, scales
 //! the layer's extinction. [`MarchLayer::shape_strength`] blends the noise in: at 0 a layer is a
@@ -63,7 +64,7 @@
 //! filters `Rgba8Unorm` in 8-bit fixed point and returns results rounded to 1/255 (measured: up to
 //! 1.5/255 from the exact trilinear value, 0.35/255 on average). The coverage and erosion remaps
 //! amplify such differences (the coverage ramp about sevenfold), so the shader filters the
-//! weather noise itself from four texel loads, exactly as [`NoiseTexture2d::sample`] does; the 3D
+//! local coverage itself from four texel loads, exactly as [`weather_coverage`] does; the 3D
 //! noises use the sampler (trilinear with mips), and their rounding leaves differences of a few
 //! tenths of a per cent in images on lavapipe, a few per cent on single rays (a cheap sample can
 //! flip between zero and non-zero). With `Rgba32Float` textures of the same texel values the GPU
@@ -505,9 +506,9 @@ impl NoiseTexture2d {
         }
     }
 
-    /// Bilinear sample at `uv` (texture units, repeat addressing), level 0. The WGSL twin,
-    /// `sample_weather_noise`, filters by hand from four `textureLoad`s so that every GPU
-    /// computes exactly this (the density model amplifies weather errors about sevenfold).
+    /// Bilinear sample at `uv` (texture units, repeat addressing), level 0. The density model
+    /// does not filter the noise itself: it filters the local coverage of each texel
+    /// ([`weather_coverage`]).
     pub fn sample(&self, uv: [f64; 2]) -> [f64; 4] {
         let n = self.size;
         let axes = uv.map(|c| filter_taps(c, n));
@@ -885,6 +886,75 @@ pub fn local_coverage(coverage: f64, weather: f64) -> f64 {
     field.max(overcast)
 }
 
+/// Local coverage `κ` of weather texel `texel` (an index along the noise axes, not wrapped: the
+/// texel at the camera is near `weather_offset_m / weather_scale_m · n`): [`local_coverage`] of
+/// the texel's coverage channel and of the layer's coverage ([`layer_coverage`]) at the texel's
+/// centre, `(texel + 0.5) · weather_scale_m / n − weather_offset_m` from the camera. A coverage
+/// of 1 there is overcast without reading the texel. The weather-map pass stores exactly these
+/// values (see [`super::weather_map`]). WGSL twin: `weather_texel_coverage`.
+pub fn weather_texel_coverage(
+    weather: &NoiseTexture2d,
+    layer: &MarchLayer,
+    texel: [i64; 2],
+) -> f64 {
+    let n = weather.size.max(1);
+    let texel_m = layer.weather_scale_m / f64::from(n);
+    let centre = [0, 1].map(|a| (texel[a] as f64 + 0.5) * texel_m - layer.weather_offset_m[a]);
+    let coverage = layer_coverage(layer, centre);
+    if coverage >= 1.0 {
+        return 1.0;
+    }
+    let n = i64::from(n);
+    let [x, y] = texel.map(|i| i.rem_euclid(n) as usize);
+    local_coverage(coverage, unorm8(weather.texels[x + n as usize * y][0]))
+}
+
+/// The weather texel `(index, weight)` pairs a bilinear look-up of coordinate `c` (texture
+/// units) on `n` texels reads along one axis: texel centres at `(i + 0.5) / n`, indices not
+/// wrapped. WGSL twin: the first lines of `weather_coverage`.
+pub fn weather_taps(c: f64, n: u32) -> [(i64, f64); 2] {
+    let x = c * f64::from(n) - 0.5;
+    let floor = x.floor();
+    let weight = x - floor;
+    let i0 = floor as i64;
+    [(i0, 1.0 - weight), (i0 + 1, weight)]
+}
+
+/// Local coverage `κ`, 0–1, of a layer at `horizontal_m` (relative to the camera, along the noise
+/// axes) and `height_above_base_m`: the bilinear filter of [`weather_texel_coverage`] over the
+/// four weather texels around the look-up `(horizontal + weather_offset + skew · height) /
+/// weather_scale`.
+///
+/// The coverage remap is applied per texel and then filtered (rather than filtering the noise
+/// and then remapping), so the GPU can cache the texel values in its weather map and read them
+/// with the same four taps: inside the map and outside it the result is the same function. The
+/// weather noise varies slowly against the remap (κ changes by 0.06 per texel at the median
+/// edge texel of the default noise), so the two orders differ little. WGSL twin:
+/// `weather_coverage`.
+pub fn weather_coverage(
+    weather: &NoiseTexture2d,
+    layer: &MarchLayer,
+    horizontal_m: [f64; 2],
+    height_above_base_m: f64,
+) -> f64 {
+    let n = weather.size.max(1);
+    let taps = [0, 1].map(|a| {
+        let uv =
+            (horizontal_m[a] + layer.weather_offset_m[a] + layer.skew[a] * height_above_base_m)
+                / layer.weather_scale_m;
+        weather_taps(uv, n)
+    });
+    let mut kappa = 0.0;
+    for corner in 0..4_usize {
+        let (x, wx) = taps[0][corner & 1];
+        let (y, wy) = taps[1][corner >> 1];
+        if wx * wy > 0.0 {
+            kappa += wx * wy * weather_texel_coverage(weather, layer, [x, y]);
+        }
+    }
+    kappa
+}
+
 /// Linear remap of `value` from `[old_min, old_max]` to `[new_min, new_max]` (seed 002, Figure
 /// 30). WGSL twin: `remap`.
 pub fn remap(value: f64, old_min: f64, old_max: f64, new_min: f64, new_max: f64) -> f64 {
@@ -951,19 +1021,7 @@ pub fn layer_density(
     if !is_positive(profile) {
         return 0.0;
     }
-    // Full coverage is overcast whatever the weather says: no look-up needed.
-    let coverage = layer_coverage(layer, horizontal_m);
-    let kappa = if coverage >= 1.0 {
-        1.0
-    } else if !is_positive(coverage) {
-        0.0
-    } else {
-        let uv = [0, 1].map(|a| {
-            (horizontal_m[a] + layer.weather_offset_m[a] + layer.skew[a] * height_above_base)
-                / layer.weather_scale_m
-        });
-        local_coverage(coverage, textures.weather.sample(uv)[0])
-    };
+    let kappa = weather_coverage(&textures.weather, layer, horizontal_m, height_above_base);
     if !is_positive(kappa) {
         return 0.0;
     }

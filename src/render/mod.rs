@@ -2,6 +2,8 @@
 //!
 //! - [`noise`]: a compute pass that fills the tileable cloud-noise textures once, and again only
 //!   when [`noise::CloudNoiseSettings`] change.
+//! - [`weather_map`]: a compute pass per camera that caches each layer's local coverage on the
+//!   weather noise's texels around the camera, for the march to read.
 //! - [`march`]: a fullscreen pass per camera with [`VolumetricClouds`] that ray-marches the
 //!   [`CloudLayer`](crate::layers::CloudLayer)s, stops at scene geometry and composites the clouds
 //!   over the scene in HDR.
@@ -19,6 +21,7 @@ pub mod haze;
 pub mod march;
 pub mod noise;
 pub mod shadow;
+pub mod weather_map;
 
 use bevy::{camera::Hdr, core_pipeline::prepass::DepthPrepass, prelude::*};
 
@@ -123,6 +126,13 @@ pub struct VolumetricClouds {
     /// per `min_step_m`. Steps finer than the detail noise's texels (700 m / 32 = 22 m by
     /// default) add little. Default 20 m (`ULTRA` 5 m); 0 always marches every primary step.
     pub min_step_m: f32,
+    /// Side of each layer's weather map, in weather-noise texels ([`weather_map`]): the march
+    /// reads a layer's local coverage from the map within `weather_map_size / 2` texels of the
+    /// camera (12 km for cumulus at the default 512) and computes it at each sample farther out.
+    /// The image is the same either way; the map saves the coverage arithmetic near the camera
+    /// for one compute thread per texel and layer each frame. Clamped to the device's largest
+    /// texture (at most 8192); below 2 turns the map off. Default 512.
+    pub weather_map_size: u32,
 }
 
 impl VolumetricClouds {
@@ -163,6 +173,7 @@ impl VolumetricClouds {
         light_shaft_resolution_scale: 0.25,
         sun_from_shadow_map_m: 5_000.0,
         min_step_m: 20.0,
+        weather_map_size: crate::reference::weather_map::DEFAULT_WEATHER_MAP_SIZE,
     };
     /// More steps for close-ups and stills.
     pub const HIGH: Self = Self {

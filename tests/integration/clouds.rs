@@ -904,3 +904,141 @@ fn view_rays_keep_their_direction_far_from_the_origin() {
         assert!(error <= 0.01, "relative RMSE {error}");
     }
 }
+
+/// The weather map caches each layer's local coverage around the camera. Its texels are the CPU
+/// twin's, and the image is the same with the map, without it, and with a map so small that its
+/// edge crosses the view (where the march switches to computing the coverage itself); each
+/// matches the CPU reference. The layer has a far place (the map carries the coverage blend)
+/// and a week of wind drift (the map's origin comes from the wrapped f64 offset).
+#[test]
+fn weather_map_matches_the_cpu_and_changes_the_cost_not_the_image() {
+    use bevy_cloudscape::{
+        layers::FarCoverage,
+        reference::weather_map::{build_weather_map, weather_map_origin},
+        render::{march::LayerDrift, weather_map::CloudWeatherMap},
+    };
+    let size = UVec2::new(64, 36);
+    let recipe = small_recipe();
+    let textures = CloudTextures::from_recipe(&recipe);
+    let mut rig = CloudRig::new(size, Msaa::Off, recipe.clone());
+    let cloud = CloudLayer {
+        far_coverage: vec![FarCoverage {
+            from_m: [0.0, 0.0],
+            to_m: [0.0, 15_000.0],
+            coverage: 0.9,
+        }],
+        wind_m_s: [12.0, 5.0],
+        ..layer(CloudKind::Cumulus, 0.3)
+    };
+    let week_s = 7.0 * 86_400.0;
+    let mut images = Vec::new();
+    // Off, a map of 64 texels (±6 km at this noise's 188 m texels: its edge is in view) and the
+    // default.
+    for (map_size, name) in [(0, "off"), (64, "small"), (512, "default")] {
+        let scene = Scene {
+            name: "weather_map",
+            camera: looking(Vec3::new(0.0, 2.0, 0.0), 14.0, 20.0),
+            sun_deg: (40.0, 150.0),
+            layers: vec![cloud.clone()],
+            settings: VolumetricClouds {
+                weather_map_size: map_size,
+                ..settings(64)
+            },
+        };
+        rig.set_scene(&scene);
+        let world = rig.app.world();
+        let layers: Vec<Entity> = world
+            .query_filtered::<Entity, With<CloudLayer>>()
+            .iter(world)
+            .collect();
+        for entity in layers {
+            world.entity_mut(entity).insert(LayerDrift {
+                offset_m: [12.0 * week_s, 5.0 * week_s],
+            });
+        }
+        let before = rig
+            .app
+            .render_world()
+            .resource::<CloudPassStats>()
+            .views_with_weather_map;
+        let (gpu_l, gpu_t) = rig.render(3);
+        let maps = rig
+            .app
+            .render_world()
+            .resource::<CloudPassStats>()
+            .views_with_weather_map
+            - before;
+        let (cpu_l, cpu_t) = rig.reference(&textures);
+        let error = relative_rmse(&gpu_l, &cpu_l);
+        let t_error = gpu_t
+            .iter()
+            .zip(&cpu_t)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max);
+        let mean_t = cpu_t.iter().map(|t| f64::from(*t)).sum::<f64>() / cpu_t.len() as f64;
+        eprintln!(
+            "weather map {name}: {maps} maps built in 3 frames; GPU vs CPU relative RMSE \
+             {error:.4}, max |ΔT| {t_error:.4}, mean T {mean_t:.3}"
+        );
+        save_strip(
+            &output_dir().join(format!("clouds_weather_map_{name}.png")),
+            size,
+            &[&gpu_l, &cpu_l],
+        );
+        assert!(error <= 0.03, "{name}: relative RMSE {error}");
+        assert!(
+            mean_t < 0.9,
+            "{name}: the view must show cloud (mean T {mean_t})"
+        );
+        if map_size == 0 {
+            assert_eq!(maps, 0, "no map when it is off");
+        } else {
+            assert!(maps >= 3, "{name}: the map is rebuilt every frame ({maps})");
+            // The texels the pass wrote, against the CPU twin at the extracted offsets.
+            let view = rig.extracted();
+            let world = rig.app.render_world();
+            let texture = world
+                .query::<&CloudWeatherMap>()
+                .iter(world)
+                .next()
+                .expect("the view has a weather map")
+                .texture()
+                .clone();
+            let bytes = rig.app.read_texture(&texture, 0);
+            let side = map_size as usize;
+            assert_eq!(bytes.len(), side * side * view.layers.len() * 4);
+            let mut worst = 0.0f64;
+            let mut partial = 0;
+            for (slice, layer) in view.layers.iter().enumerate() {
+                let origin = weather_map_origin(layer, recipe.weather_size, map_size);
+                let cpu = build_weather_map(&textures.weather, layer, origin, map_size);
+                for (i, kappa) in cpu.iter().enumerate() {
+                    let at = 4 * (slice * side * side + i);
+                    let gpu = f32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
+                    worst = worst.max((f64::from(gpu) - kappa).abs());
+                    partial += usize::from(*kappa > 0.0 && *kappa < 1.0);
+                }
+            }
+            eprintln!("weather map {name}: texels max |GPU - CPU| {worst:.2e}, {partial} partial");
+            assert!(worst < 1e-5, "{name}: map texels off by {worst}");
+            assert!(
+                partial > side,
+                "{name}: the map must hold cloud edges ({partial})"
+            );
+        }
+        images.push((gpu_l, gpu_t));
+    }
+    // With or without the map, the same image: only f32 rounding differs.
+    let (off_l, off_t) = &images[0];
+    for (name, (l, t)) in ["small", "default"].iter().zip(&images[1..]) {
+        let error = relative_rmse(l, off_l);
+        let t_error = t
+            .iter()
+            .zip(off_t)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max);
+        eprintln!("weather map {name} vs off: relative RMSE {error:.2e}, max |ΔT| {t_error:.2e}");
+        assert!(error < 1e-3, "{name}: the map changed the image by {error}");
+        assert!(t_error < 1e-3, "{name}: the map changed T by {t_error}");
+    }
+}

@@ -120,7 +120,7 @@ struct CloudUniforms {
     shadow_map_range_m: vec4<f32>,
 }
 
-// One cloud layer, 176 bytes (an array stride of 176 in the storage buffer). Mirror in Rust
+// One cloud layer, 192 bytes (an array stride of 192 in the storage buffer). Mirror in Rust
 // (`MarchLayer` in reference/render.rs is the f64 source of the same values):
 //
 //     #[derive(ShaderType)]
@@ -142,6 +142,9 @@ struct CloudUniforms {
 //         noise_offset_m: Vec4,        // offset  64, xy base-noise offset, zw detail offset (m)
 //         profile: [Vec4; 4],          // offset  80, (h0, d0, h1, d1), (h2, d2, h3, d3), ...
 //         far: [Vec4; 2],              // offset 144, (a_x, a_z, offset, coverage) per far place
+//         weather_map: Vec4,           // offset 176, (origin x, origin y, slice, side): weather
+//                                      //   texel of map texel (0, 0), array slice, texels per
+//                                      //   side; side < 2 when the layer has no map
 //     }
 //
 // Offsets are wrapped by their own period on the CPU in f64 (`MarchLayer::set_noise_origin`), so
@@ -165,6 +168,9 @@ struct CloudLayerGpu {
     // Coverage toward far places: dot(horizontal, xy) + z is the fraction of the way from the
     // near place to the far one, w the far coverage (Rust: `MarchLayer::far`).
     far: array<vec4<f32>, 2>,
+    // The layer's slice of the weather map (Rust: `reference::weather_map`): xy the weather
+    // texel at map texel (0, 0), z the array slice, w the side in texels (< 2: no map).
+    weather_map: vec4<f32>,
 }
 
 @group(0) @binding(2) var<uniform> clouds: CloudUniforms;
@@ -174,7 +180,7 @@ struct CloudLayerGpu {
 // Rgba8Unorm with full mips: R/G/B Worley fBm, A unused.
 @group(0) @binding(5) var detail_noise: texture_3d<f32>;
 // Rgba8Unorm, one mip: R coverage Perlin-Worley, G variation, B/A curl. Read with textureLoad
-// and filtered in the shader (`sample_weather_noise`).
+// (`weather_texel_coverage`).
 @group(0) @binding(6) var weather_noise: texture_2d<f32>;
 // linear / linear / linear-mip, repeat.
 @group(0) @binding(7) var noise_sampler: sampler;
@@ -185,6 +191,12 @@ struct CloudLayerGpu {
 // R32Float, BLUE_NOISE_SIZE², the ray-start jitter's blue noise (reference/blue_noise.rs). Bound
 // by the march pass only (binding 10).
 @group(0) @binding(10) var blue_noise: texture_2d<f32>;
+#ifdef WEATHER_MAP
+// R32Float array, one slice per layer: `weather_texel_coverage` around the camera, written each
+// frame by the weather-map pass (src/render/weather_map/). Bound by the march pass only (binding
+// 12; 11 belongs to march.wgsl), which defines WEATHER_MAP.
+@group(0) @binding(12) var weather_map: texture_2d_array<f32>;
+#endif
 
 // Rust: the constants of the same names; see their docs there.
 const MAX_PROFILE_POINTS: u32 = 8u;
@@ -465,24 +477,54 @@ fn sample_detail_noise(uvw: vec3<f32>, lod: f32) -> vec4<f32> {
     return textureSampleLevel(detail_noise, noise_sampler, uvw, lod);
 }
 
-// Bilinear, repeating, level 0, filtered here from four `textureLoad`s rather than by the
-// sampler: the coverage ramp multiplies weather errors by about 7, and hardware filtering of
-// Rgba8Unorm is not exact (lavapipe rounds the filtered value to 1/255, which made whole cloud
-// fields 2-5 % denser or thinner than the CPU twin). Texel centres at (i + 0.5) / n.
-// Rust: `NoiseTexture2d::sample`.
-fn sample_weather_noise(uv: vec2<f32>) -> vec4<f32> {
+// Local coverage of weather texel `texel` (not wrapped): `local_coverage` of its coverage channel
+// and of the layer coverage at the texel centre. The weather-map pass stores exactly this.
+// Rust: `weather_texel_coverage`.
+fn weather_texel_coverage(layer: CloudLayerGpu, texel: vec2<i32>) -> f32 {
     let size = vec2<i32>(textureDimensions(weather_noise));
-    let x = uv * vec2<f32>(size) - 0.5;
+    let texel_m = layer.weather_scale_m / f32(size.x);
+    let centre = (vec2<f32>(texel) + 0.5) * texel_m - layer.weather_offset_m.xy;
+    let coverage = layer_coverage(layer, centre);
+    if coverage >= 1.0 {
+        return 1.0;
+    }
+    // True modulo on integers, so negative indices repeat too.
+    let wrapped = (texel % size + size) % size;
+    return local_coverage(coverage, textureLoad(weather_noise, wrapped, 0).x);
+}
+
+// Local coverage of a layer at `horizontal_m`, `height_above_base_m` up: the bilinear filter of
+// `weather_texel_coverage` over the four texels around the skewed weather look-up, filtered here
+// from texel values rather than by a sampler (the coverage ramp multiplies errors by about 7, and
+// hardware filtering is not exact: lavapipe rounds filtered Rgba8Unorm to 1/255). The march reads
+// the four values from its weather map when the map holds them; elsewhere, and in the passes that
+// bind no map, it computes them. Rust: `weather_coverage`.
+fn weather_coverage(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_base_m: f32) -> f32 {
+    let size = f32(textureDimensions(weather_noise).x);
+    let uv = (horizontal_m + layer.weather_offset_m.xy + layer.weather_offset_m.zw * height_above_base_m)
+        / layer.weather_scale_m;
+    let x = uv * size - 0.5;
     let cell = floor(x);
     let weight = x - cell;
-    // True modulo on integers, so negative coordinates repeat too.
-    let i0 = (vec2<i32>(cell) % size + size) % size;
-    let i1 = (i0 + 1) % size;
-    let t00 = textureLoad(weather_noise, i0, 0);
-    let t10 = textureLoad(weather_noise, vec2<i32>(i1.x, i0.y), 0);
-    let t01 = textureLoad(weather_noise, vec2<i32>(i0.x, i1.y), 0);
-    let t11 = textureLoad(weather_noise, i1, 0);
-    return mix(mix(t00, t10, weight.x), mix(t01, t11, weight.x), weight.y);
+    let texel = vec2<i32>(cell);
+#ifdef WEATHER_MAP
+    let map = layer.weather_map;
+    let local = texel - vec2<i32>(map.xy);
+    let last = i32(map.w) - 2;
+    if map.w >= 2.0 && all(local >= vec2<i32>(0)) && all(local <= vec2<i32>(last)) {
+        let slice = i32(map.z);
+        let k00 = textureLoad(weather_map, local, slice, 0).x;
+        let k10 = textureLoad(weather_map, local + vec2<i32>(1, 0), slice, 0).x;
+        let k01 = textureLoad(weather_map, local + vec2<i32>(0, 1), slice, 0).x;
+        let k11 = textureLoad(weather_map, local + vec2<i32>(1, 1), slice, 0).x;
+        return mix(mix(k00, k10, weight.x), mix(k01, k11, weight.x), weight.y);
+    }
+#endif
+    let k00 = weather_texel_coverage(layer, texel);
+    let k10 = weather_texel_coverage(layer, texel + vec2<i32>(1, 0));
+    let k01 = weather_texel_coverage(layer, texel + vec2<i32>(0, 1));
+    let k11 = weather_texel_coverage(layer, texel + vec2<i32>(1, 1));
+    return mix(mix(k00, k10, weight.x), mix(k01, k11, weight.x), weight.y);
 }
 
 // Extinction (1/m) of one layer at horizontal coordinates `horizontal_m` (along
@@ -500,15 +542,7 @@ fn layer_density(layer: CloudLayerGpu, horizontal_m: vec2<f32>, altitude_m: f32,
     if !(profile > 0.0) {
         return 0.0;
     }
-    let coverage = layer_coverage(layer, horizontal_m);
-    var kappa = 1.0;
-    if !(coverage > 0.0) {
-        kappa = 0.0;
-    } else if coverage < 1.0 {
-        let uv = (horizontal_m + layer.weather_offset_m.xy + layer.weather_offset_m.zw * height_above_base)
-            / layer.weather_scale_m;
-        kappa = local_coverage(coverage, sample_weather_noise(uv).x);
-    }
+    let kappa = weather_coverage(layer, horizontal_m, height_above_base);
     if !(kappa > 0.0) {
         return 0.0;
     }

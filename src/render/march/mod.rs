@@ -59,7 +59,8 @@ use bevy::{
         render_asset::RenderAssets,
         render_resource::{
             binding_types::{
-                sampler, storage_buffer_read_only, texture_2d, texture_3d, uniform_buffer,
+                sampler, storage_buffer_read_only, texture_2d, texture_2d_array, texture_3d,
+                uniform_buffer,
             },
             *,
         },
@@ -82,6 +83,11 @@ use super::{
     },
     haze::{CloudShadowFrame, GpuHazeUniforms, Haze, haze_settings, load_haze_shader},
     noise::CloudNoiseTextures,
+    weather_map::{
+        CloudWeatherMap, CloudWeatherMapPipeline, assign_weather_map,
+        init_cloud_weather_map_pipeline, load_weather_map_shader, planned_weather_map_size,
+        prepare_weather_maps,
+    },
 };
 use crate::{
     CloudscapeSystems,
@@ -118,6 +124,7 @@ impl Plugin for CloudMarchPlugin {
         load_shader_library!(app, "clouds.wgsl");
         load_haze_shader(app);
         load_composite_shaders(app);
+        load_weather_map_shader(app);
         embedded_asset!(app, "march.wgsl");
         app.sub_app_mut(RenderApp)
             .init_resource::<CloudPassStats>()
@@ -151,6 +158,7 @@ impl Plugin for CloudMarchPlugin {
                     init_cloud_march_pipeline,
                     init_cloud_upsample_pipeline,
                     init_cloud_temporal_pipeline,
+                    init_cloud_weather_map_pipeline,
                 ),
             )
             .add_systems(
@@ -159,6 +167,7 @@ impl Plugin for CloudMarchPlugin {
                     prepare_cloud_march_pipelines.in_set(RenderSystems::Prepare),
                     (prepare_cloud_view_buffers, prepare_low_res_targets)
                         .in_set(RenderSystems::PrepareResources),
+                    prepare_weather_maps.in_set(RenderSystems::PrepareBindGroups),
                 ),
             )
             .add_systems(
@@ -562,7 +571,7 @@ impl GpuCloudUniforms {
     }
 }
 
-/// One layer, laid out as `CloudLayerGpu` in `clouds.wgsl` (176 bytes).
+/// One layer, laid out as `CloudLayerGpu` in `clouds.wgsl` (192 bytes).
 #[derive(ShaderType, Clone, Debug, Default)]
 pub struct GpuCloudLayer {
     base_m: f32,
@@ -581,6 +590,21 @@ pub struct GpuCloudLayer {
     noise_offset_m: Vec4,
     profile: [Vec4; 4],
     far: [Vec4; MAX_FAR_COVERAGES],
+    weather_map: Vec4,
+}
+
+impl GpuCloudLayer {
+    /// Points the layer at slice `slice` of a weather map of side `size` texels whose texel
+    /// `(0, 0)` is weather texel `origin` ([`crate::reference::weather_map::weather_map_origin`]).
+    /// Without a call the layer has no map and the march computes its coverage at every sample.
+    pub fn set_weather_map(&mut self, origin: [i64; 2], slice: u32, size: u32) {
+        self.weather_map = Vec4::new(
+            origin[0] as f32,
+            origin[1] as f32,
+            slice as f32,
+            size as f32,
+        );
+    }
 }
 
 impl From<&MarchLayer> for GpuCloudLayer {
@@ -619,6 +643,7 @@ impl From<&MarchLayer> for GpuCloudLayer {
             far: layer
                 .far
                 .map(|f| Vec4::new(f[0] as f32, f[1] as f32, f[2] as f32, f[3] as f32)),
+            weather_map: Vec4::ZERO,
         }
     }
 }
@@ -642,6 +667,8 @@ pub struct ExtractedCloudView {
     pub temporal_blend: Option<f32>,
     /// World position of the camera, m (places the cloud shadow map for the light shafts).
     pub camera_m: DVec3,
+    /// [`VolumetricClouds::weather_map_size`].
+    pub weather_map_size: u32,
 }
 
 /// How many times the march pass ran, for diagnostics and tests (render world).
@@ -655,6 +682,8 @@ pub struct CloudPassStats {
     pub views_with_shafts: u64,
     /// Of those, views blended into their temporal history.
     pub views_accumulated: u64,
+    /// Of those, views whose weather map was rebuilt ([`super::weather_map`]).
+    pub views_with_weather_map: u64,
 }
 
 fn extract_cloud_views(
@@ -711,34 +740,50 @@ fn extract_cloud_views(
             temporal_blend: settings.effective_temporal_blend(),
             haze,
             camera_m: transform.translation().as_dvec3(),
+            weather_map_size: settings.weather_map_size,
         });
     }
 }
 
 /// The uniform and layer buffers of one view, written each frame.
 #[derive(Component)]
-struct CloudViewBuffers {
+pub(crate) struct CloudViewBuffers {
     uniforms: UniformBuffer<GpuCloudUniforms>,
-    layers: StorageBuffer<Vec<GpuCloudLayer>>,
+    pub(crate) layers: StorageBuffer<Vec<GpuCloudLayer>>,
     haze: UniformBuffer<GpuHazeUniforms>,
     /// The shadow map the haze reads, if it reads one.
     shadow_map: Option<AssetId<Image>>,
     /// Whether the shaft pass runs (light shafts on, haze, and a shadow map to read).
     shafts: bool,
+    /// The weather map's (side, slices) when the layers read one.
+    pub(crate) weather_map: Option<(u32, u32)>,
 }
 
+#[allow(clippy::too_many_arguments)]
 fn prepare_cloud_view_buffers(
     mut commands: Commands,
     views: Query<(Entity, &ExtractedCloudView)>,
     shadow: Option<Res<CloudShadowFrame>>,
     images: Res<RenderAssets<GpuImage>>,
+    noise: Option<Res<CloudNoiseTextures>>,
+    weather_map: Option<Res<CloudWeatherMapPipeline>>,
+    pipeline_cache: Res<PipelineCache>,
     device: Res<RenderDevice>,
     queue: Res<RenderQueue>,
 ) {
+    // The layers read a weather map only once its pass can fill it.
+    let map_ready = weather_map.is_some_and(|p| p.get(&pipeline_cache).is_some());
     for (entity, view) in &views {
         let mut gpu_layers: Vec<GpuCloudLayer> =
             view.layers.iter().map(GpuCloudLayer::from).collect();
         let layer_count = gpu_layers.len() as u32;
+        let map_size = noise.as_deref().filter(|_| map_ready).and_then(|noise| {
+            planned_weather_map_size(view.weather_map_size, gpu_layers.len(), &device.limits())
+                .map(|size| (noise.recipe.weather_size, size))
+        });
+        if let Some((noise_size, size)) = map_size {
+            assign_weather_map(&mut gpu_layers, &view.layers, noise_size, size);
+        }
         if gpu_layers.is_empty() {
             // Haze alone: a storage binding may not be empty; this layer is never read.
             gpu_layers.push(GpuCloudLayer::default());
@@ -768,6 +813,7 @@ fn prepare_cloud_view_buffers(
             haze,
             shadow_map: map.map(|m| m.image),
             shafts,
+            weather_map: map_size.map(|(_, size)| (size, layer_count)),
         });
     }
 }
@@ -816,6 +862,7 @@ fn march_layout(label: &'static str, multisampled: bool) -> BindGroupLayoutDescr
                 texture_2d(TextureSampleType::Float { filterable: true }),
                 texture_2d(TextureSampleType::Float { filterable: false }),
                 texture_2d(TextureSampleType::Float { filterable: false }),
+                texture_2d_array(TextureSampleType::Float { filterable: false }),
             ),
         ),
     )
@@ -871,6 +918,7 @@ impl SpecializedRenderPipeline for CloudMarchPipeline {
     fn specialize(&self, key: Self::Key) -> RenderPipelineDescriptor {
         let multisampled = key.samples > 1;
         let mut shader_defs = depth_shader_defs(multisampled);
+        shader_defs.push("WEATHER_MAP".into());
         let (entry, targets) = if key.shafts {
             ("shafts", vec![Some(ColorTargetState::from(SHAFT_FORMAT))])
         } else if key.low_res {
@@ -998,6 +1046,7 @@ type MarchViewQuery = (
     Option<&'static CloudLowResTargets>,
     Option<&'static CloudShaftTarget>,
     Option<&'static CloudHistory>,
+    &'static CloudWeatherMap,
 );
 
 /// How the march's output reaches the view.
@@ -1062,6 +1111,7 @@ fn march_cloud_layers(
     pipeline: Option<Res<CloudMarchPipeline>>,
     upsample: Option<Res<CloudUpsamplePipeline>>,
     temporal: Option<Res<CloudTemporalPipeline>>,
+    weather_map_pipeline: Option<Res<CloudWeatherMapPipeline>>,
     noise: Option<Res<CloudNoiseTextures>>,
     view_uniforms: Res<ViewUniforms>,
     pipeline_cache: Res<PipelineCache>,
@@ -1080,6 +1130,7 @@ fn march_cloud_layers(
         low_res,
         shaft_target,
         history,
+        weather_map,
     ): QueryItem<MarchViewQuery> = view.into_inner();
     let (
         Some(pipeline),
@@ -1181,6 +1232,7 @@ fn march_cloud_layers(
                 shadow_map,
                 &pipeline.blue_noise,
                 shaft_view,
+                &weather_map.view,
             )),
         )
     };
@@ -1226,6 +1278,13 @@ fn march_cloud_layers(
     let diagnostics = diagnostics.as_deref();
     let time_span = diagnostics.time_span(ctx.command_encoder(), "cloud_march");
     ctx.command_encoder().push_debug_group("cloud_march");
+    if let Some(compute) = weather_map_pipeline
+        .as_deref()
+        .and_then(|p| p.get(&pipeline_cache))
+        && weather_map.dispatch(ctx.command_encoder(), compute)
+    {
+        stats.views_with_weather_map += 1;
+    }
     let offset = view_offset.offset;
     if let (Some((shaft_target, shaft_pipeline)), Some(shaft_bind_group)) =
         (shafts, &shaft_bind_group)
@@ -1339,7 +1398,7 @@ mod tests {
     #[test]
     fn gpu_structs_match_the_shader_layout() {
         assert_eq!(GpuCloudUniforms::min_size().get(), 224);
-        assert_eq!(GpuCloudLayer::min_size().get(), 176);
+        assert_eq!(GpuCloudLayer::min_size().get(), 192);
     }
 
     #[test]

@@ -1,0 +1,207 @@
+//! The weather map: each layer's local coverage per weather texel around the camera, as the GPU
+//! caches it.
+//!
+//! The density model reads the local coverage `κ` of a layer as the bilinear filter of
+//! [`weather_texel_coverage`] over four weather texels ([`weather_coverage`]). Each texel's value
+//! needs the layer's coverage at the texel (the blend toward far places, [`layer_coverage`]) and
+//! the coverage remap. The weather-map pass (`src/render/weather_map/`) computes them once per
+//! frame for a square of `size²` texels around the camera, one slice per layer, and the march
+//! reads the four taps from the map instead of recomputing them at every sample. Outside the
+//! square the march computes the taps itself, so the map changes the cost and not the image.
+//!
+//! The map's texels are the weather noise's texels, not a resampling of them: texel `(i, j)` of
+//! the map is weather texel `origin + (i, j)`. The origin is chosen from the layer's wrapped
+//! weather offset ([`weather_map_origin`]), which holds the camera position and the wind drift
+//! in f64 (`MarchLayer::set_noise_origin`), so the map scrolls with the wind by whole texels and
+//! the fraction of a texel stays in the look-up; a week of wind keeps full precision.
+//!
+//! [`layer_coverage`]: super::render::layer_coverage
+
+use super::render::{MarchLayer, NoiseTexture2d, weather_texel_coverage};
+
+/// Default side of each layer's weather map, texels (a slice of `size²` `R32Float` values, 1 MiB
+/// at 512). At the default cumulus weather period (12 km over 256 texels) it covers 24 km around
+/// the camera.
+pub const DEFAULT_WEATHER_MAP_SIZE: u32 = 512;
+
+/// Largest side of a weather map, texels (WebGPU's guaranteed 2D texture size).
+pub const MAX_WEATHER_MAP_SIZE: u32 = 8192;
+
+/// The weather texel at map texel `(0, 0)` of a layer's map of side `size` texels, on a weather
+/// noise of `noise_size` texels per side: the texel nearest the camera minus half the side, so
+/// the map is centred on the camera. Indices are along the noise axes and not wrapped (the look-up
+/// wraps them). WGSL: the pass reads it from the layer (`CloudLayerGpu::weather_map`).
+pub fn weather_map_origin(layer: &MarchLayer, noise_size: u32, size: u32) -> [i64; 2] {
+    let n = f64::from(noise_size.max(1));
+    layer.weather_offset_m.map(|offset| {
+        let camera = offset / layer.weather_scale_m * n;
+        let camera = if camera.is_finite() { camera } else { 0.0 };
+        camera.round() as i64 - i64::from(size / 2)
+    })
+}
+
+/// Whether a look-up whose first tap is weather texel `texel` reads all four taps from a map of
+/// side `size` at `origin`: both taps on each axis inside the map. WGSL: `weather_coverage`.
+pub fn weather_map_holds(origin: [i64; 2], size: u32, texel: [i64; 2]) -> bool {
+    let last = i64::from(size) - 2;
+    (0..2).all(|a| {
+        let local = texel[a] - origin[a];
+        (0..=last).contains(&local)
+    })
+}
+
+/// One layer's weather map: `size²` values of [`weather_texel_coverage`], x fastest, texel
+/// `(i, j)` holding weather texel `origin + (i, j)`. The GPU pass writes the same values in f32.
+/// WGSL twin: `build_weather_map` in `src/render/weather_map/weather_map.wgsl`.
+pub fn build_weather_map(
+    weather: &NoiseTexture2d,
+    layer: &MarchLayer,
+    origin: [i64; 2],
+    size: u32,
+) -> Vec<f64> {
+    let size = i64::from(size);
+    (0..size * size)
+        .map(|i| {
+            let texel = [origin[0] + i % size, origin[1] + i / size];
+            weather_texel_coverage(weather, layer, texel)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::reference::noise::{NoiseRecipe, generate_weather};
+    use crate::reference::render::{weather_coverage, weather_taps};
+
+    fn weather() -> NoiseTexture2d {
+        let recipe = NoiseRecipe {
+            weather_size: 32,
+            ..NoiseRecipe::default()
+        };
+        NoiseTexture2d::from_texels(&generate_weather(&recipe, 32), 32)
+    }
+
+    fn layer() -> MarchLayer {
+        let mut layer = MarchLayer {
+            coverage: 0.45,
+            weather_scale_m: 3200.0,
+            skew: [0.3, -0.2],
+            far_count: 1,
+            ..MarchLayer::default()
+        };
+        // Far coverage 0.9 toward +x, 4 km away: the map's texels carry the blend.
+        layer.far[0] = [1.0 / 4000.0, 0.0, 0.0, 0.9];
+        layer.set_noise_origin([123_456.7, -98_765.4]);
+        layer
+    }
+
+    /// Bilinear read of a map, as the march does inside it.
+    fn read_map(map: &[f64], origin: [i64; 2], size: u32, taps: [[(i64, f64); 2]; 2]) -> f64 {
+        let mut sum = 0.0;
+        for corner in 0..4_usize {
+            let (x, wx) = taps[0][corner & 1];
+            let (y, wy) = taps[1][corner >> 1];
+            let local = (x - origin[0]) as usize + size as usize * (y - origin[1]) as usize;
+            sum += wx * wy * map[local];
+        }
+        sum
+    }
+
+    #[test]
+    fn the_map_reproduces_the_coverage_it_caches() {
+        let weather = weather();
+        let layer = layer();
+        let size = 40;
+        let origin = weather_map_origin(&layer, weather.size, size);
+        let map = build_weather_map(&weather, &layer, origin, size);
+        let mut inside = 0;
+        let mut varied = 0;
+        for i in 0..400 {
+            // Points within about ±1.5 km of the camera, at heights through the layer.
+            let x = ((i * 37) % 61) as f64 * 50.0 - 1500.0;
+            let z = ((i * 53) % 59) as f64 * 50.0 - 1450.0;
+            let height = (i % 7) as f64 * 200.0;
+            let taps = [0, 1].map(|a| {
+                let h = [x, z][a];
+                weather_taps(
+                    (h + layer.weather_offset_m[a] + layer.skew[a] * height)
+                        / layer.weather_scale_m,
+                    weather.size,
+                )
+            });
+            let direct = weather_coverage(&weather, &layer, [x, z], height);
+            if direct > 0.0 && direct < 1.0 {
+                varied += 1;
+            }
+            if weather_map_holds(origin, size, [taps[0][0].0, taps[1][0].0]) {
+                inside += 1;
+                let cached = read_map(&map, origin, size, taps);
+                assert!(
+                    (cached - direct).abs() < 1e-12,
+                    "{cached} vs {direct} at {x}, {z}"
+                );
+            }
+        }
+        // The test means something: most points fall in the map and the coverage varies there.
+        assert!(inside > 300, "{inside}");
+        assert!(varied > 50, "{varied}");
+    }
+
+    #[test]
+    fn the_map_is_centred_on_the_camera_and_scrolls_with_the_wind() {
+        let weather = weather();
+        let mut layer = layer();
+        let size = 16;
+        let n = f64::from(weather.size);
+        let texel_m = layer.weather_scale_m / n;
+        // The camera's look-up (horizontal 0, at the base) has its first tap inside, with room
+        // for half the map on every side.
+        let origin = weather_map_origin(&layer, weather.size, size);
+        let camera = [0, 1].map(|a| {
+            weather_taps(
+                layer.weather_offset_m[a] / layer.weather_scale_m,
+                weather.size,
+            )[0]
+            .0
+        });
+        for a in 0..2 {
+            let local = camera[a] - origin[a];
+            assert!((7..=8).contains(&local), "{local}");
+        }
+        // After a week of wind at 10 m/s east (6048 km), the origin is still the camera's
+        // texel minus half the map, and the offset stays below one period.
+        let week_m = 10.0 * 7.0 * 86_400.0;
+        layer.set_noise_origin([123_456.7 - week_m, -98_765.4]);
+        assert!(
+            layer.weather_offset_m[0] >= 0.0 && layer.weather_offset_m[0] < layer.weather_scale_m
+        );
+        let moved = weather_map_origin(&layer, weather.size, size);
+        let expected = ((123_456.7 - week_m) / texel_m).rem_euclid(n).round() as i64 - 8;
+        assert_eq!(moved[0], expected);
+        // One texel of drift moves the origin by one texel (modulo the period's wrap).
+        layer.set_noise_origin([123_456.7 - week_m - texel_m, -98_765.4]);
+        let step = weather_map_origin(&layer, weather.size, size);
+        assert_eq!((moved[0] - step[0]).rem_euclid(weather.size as i64), 1);
+    }
+
+    #[test]
+    fn coverage_one_and_zero_fill_the_map() {
+        let weather = weather();
+        let mut layer = layer();
+        layer.far_count = 0;
+        layer.coverage = 1.0;
+        let origin = weather_map_origin(&layer, weather.size, 8);
+        assert!(
+            build_weather_map(&weather, &layer, origin, 8)
+                .iter()
+                .all(|&k| k == 1.0)
+        );
+        layer.coverage = 0.0;
+        assert!(
+            build_weather_map(&weather, &layer, origin, 8)
+                .iter()
+                .all(|&k| k == 0.0)
+        );
+    }
+}
