@@ -26,7 +26,8 @@
 //! - `images/SCENE_PRESET.png`: each render beside the reference.
 //! - `effects.csv`: `effect,scene,ms_with,ms_without,ratio`, the median whole-frame time with
 //!   and without each optional effect (the cloud shadow map at 256², haze, light shafts, rain,
-//!   fog, temporal accumulation; see `measure_effects`), on the cumulus scene with `MEDIUM`.
+//!   fog, temporal accumulation, the weather map; see `measure_effects`), on the cumulus scene
+//!   with `MEDIUM`.
 //!
 //! `--error-budget` instead prints, for the cumulus and sunset scenes, the error of `HIGH` with one
 //! knob changed at a time, on the CPU reference renderer (48×27, small noise, no jitter) against
@@ -226,7 +227,9 @@ fn measure(
 ///   none;
 /// - `fog`: a fog layer at 1 km visibility (coverage 1, 150 m deep), against none;
 /// - `temporal_accumulation`: `MEDIUM`'s accumulation of jittered frames (blend 0.1), against
-///   each frame alone (blend 1).
+///   each frame alone (blend 1);
+/// - `weather_map`: `MEDIUM`'s weather map (512² per layer, rebuilt each frame) against each
+///   sample computing its coverage (a ratio below 1 is a saving).
 fn measure_effects(rig: &mut CloudRig, frames: u32) -> String {
     let base = Scene {
         settings: VolumetricClouds::MEDIUM,
@@ -306,8 +309,19 @@ fn measure_effects(rig: &mut CloudRig, frames: u32) -> String {
         ..base.clone()
     };
     let with = time(rig, &base, false, clear.clone());
-    let without = time(rig, &alone, false, clear);
+    let without = time(rig, &alone, false, clear.clone());
     row("temporal_accumulation", with, without);
+
+    let unmapped = Scene {
+        settings: VolumetricClouds {
+            weather_map_size: 0,
+            ..VolumetricClouds::MEDIUM
+        },
+        ..base.clone()
+    };
+    let with = time(rig, &base, false, clear.clone());
+    let without = time(rig, &unmapped, false, clear);
+    row("weather_map", with, without);
     csv
 }
 
