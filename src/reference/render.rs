@@ -1467,6 +1467,14 @@ impl Ray<'_> {
     /// Marches `[start, end]` in `primary_steps` steps growing with distance, with
     /// Schneider 2015's two-level stepping; returns false once the transmittance cut-off is hit
     /// (after adding the tail estimate and setting the transmittance to 0).
+    ///
+    /// Cheap samples, one per [`CHEAP_STRIDE`] steps, look for cloud. One that finds some sends
+    /// the march back a stride, to the start of the stride that holds the last cheap sample that
+    /// found none (but never onto a step already marched), and on in full detail at least to the
+    /// end of the stride that found cloud; after [`EMPTY_STEPS_TO_CHEAP`] empty steps it strides
+    /// again.
+    /// Backing up makes the first detail sample in a cloud lie uniformly within one step of its
+    /// edge whatever the grid's phase, so the mean over jitters has no pattern tied to the grid.
     fn march_interval(&mut self, start: f64, end: f64) -> bool {
         let settings = self.settings;
         let steps = interval_steps(settings, end - start);
@@ -1478,9 +1486,11 @@ impl Ray<'_> {
         let mut k = 0;
         let mut cheap = true;
         let mut empty = 0;
-        // Each pass advances k or switches cheap → detail (which then advances k), so 2n + 2
-        // passes always suffice; the bound mirrors the WGSL twin's loop guard.
-        for _ in 0..2 * steps + 2 {
+        // The first step not yet marched in detail: a back-up never marches a step twice.
+        let mut unmarched = 0;
+        // The end of the stride whose cheap sample found cloud: detail goes on at least to here.
+        let mut detail_until = 0;
+        for _ in 0..march_passes(steps) {
             if k >= steps {
                 break;
             }
@@ -1488,9 +1498,12 @@ impl Ray<'_> {
                 let k2 = (k + CHEAP_STRIDE).min(steps);
                 let (ta, tb) = (boundary(k), boundary(k2));
                 if self.cheap_extinction(ta + self.jitter * (tb - ta)) > 0.0 {
-                    // Cloud ahead: march this stride again in full detail.
+                    // Cloud ahead. It may begin anywhere after the last cheap sample that found
+                    // none, in the stride before this one: march from there in full detail.
                     cheap = false;
                     empty = 0;
+                    detail_until = k2;
+                    k = k.saturating_sub(CHEAP_STRIDE).max(unmarched);
                 } else {
                     k = k2;
                 }
@@ -1513,14 +1526,24 @@ impl Ray<'_> {
                 }
             } else {
                 empty += 1;
-                if empty >= EMPTY_STEPS_TO_CHEAP {
+                if empty >= EMPTY_STEPS_TO_CHEAP && k + 1 >= detail_until {
                     cheap = true;
                 }
             }
             k += 1;
+            unmarched = k;
         }
         true
     }
+}
+
+/// Loop passes that always finish an interval of `steps` steps in the march (`march_interval`): a
+/// cheap pass advances a stride or switches to detail, which backs up at most one stride and then
+/// advances past the stride that found cloud; so detail passes number at most `steps` plus one
+/// stride per switch, and switches at most `steps / CHEAP_STRIDE + 1`. The WGSL twin's loop guard
+/// is the same bound.
+pub const fn march_passes(steps: u32) -> u32 {
+    4 * steps + 4 * CHEAP_STRIDE + 2
 }
 
 /// Marches one view ray through the cloud layers: the in-scattered radiance and the view
@@ -2457,5 +2480,99 @@ mod tests {
         assert_eq!(step_warp(0.37, 0.0), 0.37);
         assert!((step_warp(1.0, 5.0) - 1.0).abs() < 1e-15);
         assert!((step_warp(0.5, 3.0) - 1.0 / 3.0).abs() < 1e-15);
+    }
+
+    /// Jitter-mean luminance of a ray looking along +x through a band of cloud whose near wall
+    /// is `wall_m` away, with a low sun behind the camera lighting the wall's face: the mean
+    /// over 64 evenly spaced jitters, which the temporal accumulation converges to.
+    fn wall_radiance(textures: &CloudTextures, wall_m: f64) -> f64 {
+        let settings = MarchSettings {
+            primary_steps: 48,
+            camera_altitude_m: 1500.0,
+            sun_direction: [-10f64.to_radians().cos(), 10f64.to_radians().sin(), 0.0],
+            ..MarchSettings::default()
+        };
+        let mut layer = slab(0.05);
+        layer.coverage = 0.5;
+        layer.weather_scale_m = 32_000.0;
+        // The band's near edge is at u = 0.25 of the period: the look-up u = (x + offset) / scale
+        // reaches it at x = wall_m.
+        layer.weather_offset_m = [0.25 * 32_000.0 - wall_m, 0.0];
+        let jitters = 64;
+        (0..jitters)
+            .map(|i| {
+                let jitter = (f64::from(i) + 0.5) / f64::from(jitters);
+                let result = march_clouds(
+                    textures,
+                    &settings,
+                    std::slice::from_ref(&layer),
+                    1500.0,
+                    UP,
+                    [1.0, 0.0, 0.0],
+                    f64::INFINITY,
+                    jitter,
+                    None,
+                );
+                result.radiance.iter().sum::<f64>() / 3.0
+            })
+            .sum::<f64>()
+            / f64::from(jitters)
+    }
+
+    /// A cloud wall far beyond one step is found at the same depth whatever the step grid's
+    /// phase against it: where the cheap stride's sample falls short of the wall, the next one
+    /// finds cloud and the detail march backs up a stride to where the wall begins. Without the
+    /// back-up the march skipped the part of a stride between the wall and the stride's end with
+    /// a probability that depends on the phase, which drew horizontal bands on cumulus walls.
+    #[test]
+    fn cloud_walls_look_the_same_whatever_the_step_phase() {
+        let flat = NoiseTexture3d::from_level0(&[[0.5; 4]], 1);
+        let n = 1024u32;
+        // A band of full local coverage over texels 256..768 (16 km at 31 m per texel).
+        let texels: Vec<[f64; 4]> = (0..n * n)
+            .map(|i| {
+                let x = i % n;
+                let w = if (256..768).contains(&x) { 1.0 } else { 0.0 };
+                [w, 0.0, 0.0, 0.0]
+            })
+            .collect();
+        let textures = CloudTextures {
+            base: flat.clone(),
+            detail: flat,
+            weather: NoiseTexture2d::from_texels(&texels, n),
+        };
+        // The wall swept over 4 km, several strides of the 48-step grid there.
+        let radiance: Vec<f64> = (0..=40)
+            .map(|i| wall_radiance(&textures, 6_000.0 + 100.0 * f64::from(i)))
+            .collect();
+        // Departure from the straight line through the sweep (the steps grow with distance, so
+        // a slow trend is expected), relative to the mean.
+        let count = radiance.len() as f64;
+        let mean = radiance.iter().sum::<f64>() / count;
+        let mean_x = (count - 1.0) / 2.0;
+        let slope = radiance
+            .iter()
+            .enumerate()
+            .map(|(i, r)| (i as f64 - mean_x) * (r - mean))
+            .sum::<f64>()
+            / radiance
+                .iter()
+                .enumerate()
+                .map(|(i, _)| (i as f64 - mean_x).powi(2))
+                .sum::<f64>();
+        let worst = radiance
+            .iter()
+            .enumerate()
+            .map(|(i, r)| (r - mean - slope * (i as f64 - mean_x)).abs())
+            .fold(0.0, f64::max)
+            / mean;
+        eprintln!("wall radiance over the sweep: {radiance:.4?}; worst departure {worst:.4}");
+        assert!(mean > 0.0);
+        // Measured: 2.4 % with the back-up (steps of the growing grid and the 64-jitter mean),
+        // 23 % without it, and 20 % darker on average.
+        assert!(
+            worst < 0.05,
+            "the wall's brightness follows the step grid: {worst}"
+        );
     }
 }

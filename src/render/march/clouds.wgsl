@@ -849,8 +849,12 @@ fn march_interval(ray: ptr<function, MarchRay>, start: f32, end: f32) -> bool {
     var k = 0u;
     var cheap = true;
     var empty = 0u;
-    // Each pass advances k or switches cheap -> detail (which then advances k).
-    for (var guard = 0u; guard < 2u * steps + 2u; guard++) {
+    // The first step not yet marched in detail: a back-up never marches a step twice.
+    var unmarched = 0u;
+    // The end of the stride whose cheap sample found cloud: detail goes on at least to here.
+    var detail_until = 0u;
+    // Rust: `march_passes`.
+    for (var guard = 0u; guard < 4u * steps + 4u * CHEAP_STRIDE + 2u; guard++) {
         if k >= steps {
             break;
         }
@@ -859,9 +863,12 @@ fn march_interval(ray: ptr<function, MarchRay>, start: f32, end: f32) -> bool {
             let ta = start + span * step_warp(f32(k) / n, beta);
             let tb = start + span * step_warp(f32(k2) / n, beta);
             if cheap_extinction(ray, ta + (*ray).jitter * (tb - ta)) > 0.0 {
-                // Cloud ahead: march this stride again in full detail.
+                // Cloud ahead. It may begin anywhere after the last cheap sample that found
+                // none, in the stride before this one: march from there in full detail.
                 cheap = false;
                 empty = 0u;
+                detail_until = k2;
+                k = max(select(0u, k - CHEAP_STRIDE, k >= CHEAP_STRIDE), unmarched);
             } else {
                 k = k2;
             }
@@ -881,11 +888,12 @@ fn march_interval(ray: ptr<function, MarchRay>, start: f32, end: f32) -> bool {
             }
         } else {
             empty += 1u;
-            if empty >= EMPTY_STEPS_TO_CHEAP {
+            if empty >= EMPTY_STEPS_TO_CHEAP && k + 1u >= detail_until {
                 cheap = true;
             }
         }
         k += 1u;
+        unmarched = k;
     }
     return true;
 }
