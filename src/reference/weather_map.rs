@@ -16,6 +16,7 @@
 //! the fraction of a texel stays in the look-up; a week of wind keeps full precision.
 //!
 //! [`layer_coverage`]: super::render::layer_coverage
+//! [`weather_coverage`]: super::render::weather_coverage
 
 use super::render::{MarchLayer, NoiseTexture2d, weather_texel_coverage};
 

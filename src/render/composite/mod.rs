@@ -398,10 +398,11 @@ pub fn low_res_size(size: UVec2, scale: f32) -> UVec2 {
     (size.as_vec2() * scale).ceil().as_uvec2().max(UVec2::ONE)
 }
 
-/// Creates or drops each view's reduced-resolution targets and temporal history (render world,
-/// every frame).
+/// Creates or drops each view's composite targets (render world, every frame): the march's
+/// reduced-resolution (or accumulation) targets, the temporal history and the light-shaft
+/// target.
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn prepare_low_res_targets(
+pub(crate) fn prepare_composite_targets(
     mut commands: Commands,
     mut cache: ResMut<TextureCache>,
     device: Res<RenderDevice>,

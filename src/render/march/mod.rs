@@ -79,7 +79,7 @@ use super::{
         CloudUpsampleKey, CloudUpsamplePipeline, DepthLayouts, LOW_RES_COLOUR_FORMAT,
         LOW_RES_DISTANCE_FORMAT, SHAFT_FORMAT, depth_binding, depth_shader_defs,
         init_cloud_temporal_pipeline, init_cloud_upsample_pipeline, load_composite_shaders,
-        prepare_low_res_targets,
+        prepare_composite_targets,
     },
     haze::{CloudShadowFrame, GpuHazeUniforms, Haze, haze_settings, load_haze_shader},
     noise::CloudNoiseTextures,
@@ -165,7 +165,7 @@ impl Plugin for CloudMarchPlugin {
                 Render,
                 (
                     prepare_cloud_march_pipelines.in_set(RenderSystems::Prepare),
-                    (prepare_cloud_view_buffers, prepare_low_res_targets)
+                    (prepare_cloud_view_buffers, prepare_composite_targets)
                         .in_set(RenderSystems::PrepareResources),
                     prepare_weather_maps.in_set(RenderSystems::PrepareBindGroups),
                 ),

@@ -17,7 +17,7 @@
 //!
 //! Map texels are weather-noise texels, not a resampling of them: the map's origin is the
 //! weather texel under the camera minus half the side
-//! ([`weather_map_origin`](crate::reference::weather_map::weather_map_origin)). That texel comes
+//! ([`weather_map_origin`]). That texel comes
 //! from the layer's weather offset, which the CPU accumulates in f64 (camera position and wind
 //! drift, [`LayerDrift`](super::march::LayerDrift)) and wraps by the weather period, so the map
 //! moves by whole texels as the wind blows and the fraction of a texel stays in the look-up. A
