@@ -23,7 +23,7 @@ use bevy_cloudscape::{
     },
     render::{
         composite::low_res_size,
-        march::{CloudPassStats, ExtractedCloudView},
+        march::{CloudPassStats, ExtractedCloudView, LayerDrift},
     },
 };
 
@@ -222,6 +222,18 @@ impl CloudRig {
 
     pub fn set_scene(&mut self, scene: &Scene) {
         scene.apply(self.app.world(), self.camera, self.sun);
+    }
+
+    /// Puts `offset_m` (`[east, north]`, metres) of wind drift behind every cloud layer.
+    pub fn set_drift(&mut self, offset_m: [f64; 2]) {
+        let world = self.app.world();
+        let layers: Vec<Entity> = world
+            .query_filtered::<Entity, With<CloudLayer>>()
+            .iter(world)
+            .collect();
+        for entity in layers {
+            world.entity_mut(entity).insert(LayerDrift { offset_m });
+        }
     }
 
     pub fn set_background(&mut self, color: Color) {

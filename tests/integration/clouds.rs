@@ -439,18 +439,7 @@ fn hard_cases_stay_finite_and_physical() {
         rig.set_scene(&scene);
         // A week of 30 m/s wind already behind every layer.
         let week = 7.0 * 86_400.0 * 30.0;
-        let world = rig.app.world();
-        let layers: Vec<Entity> = world
-            .query_filtered::<Entity, With<CloudLayer>>()
-            .iter(world)
-            .collect();
-        for entity in layers {
-            world
-                .entity_mut(entity)
-                .insert(bevy_cloudscape::render::march::LayerDrift {
-                    offset_m: [week, -week],
-                });
-        }
+        rig.set_drift([week, -week]);
         let (l, t) = rig.render(2);
         assert_physical(case, &l, &t, &rig.t_tolerance);
         // With jitter the two frames of a measurement march different points, so only L is
@@ -915,7 +904,7 @@ fn weather_map_matches_the_cpu_and_changes_the_cost_not_the_image() {
     use bevy_cloudscape::{
         layers::FarCoverage,
         reference::weather_map::{build_weather_map, weather_map_origin},
-        render::{march::LayerDrift, weather_map::CloudWeatherMap},
+        render::weather_map::CloudWeatherMap,
     };
     let size = UVec2::new(64, 36);
     let recipe = small_recipe();
@@ -946,16 +935,7 @@ fn weather_map_matches_the_cpu_and_changes_the_cost_not_the_image() {
             },
         };
         rig.set_scene(&scene);
-        let world = rig.app.world();
-        let layers: Vec<Entity> = world
-            .query_filtered::<Entity, With<CloudLayer>>()
-            .iter(world)
-            .collect();
-        for entity in layers {
-            world.entity_mut(entity).insert(LayerDrift {
-                offset_m: [12.0 * week_s, 5.0 * week_s],
-            });
-        }
+        rig.set_drift([12.0 * week_s, 5.0 * week_s]);
         let before = rig
             .app
             .render_world()
