@@ -251,19 +251,21 @@ fn measure_effects(rig: &mut CloudRig, frames: u32) -> String {
             with / without
         ));
     };
+    // The base scene with other settings.
+    let medium_with = |settings: VolumetricClouds| Scene {
+        settings,
+        ..base.clone()
+    };
     let clear = Haze::default();
     let hazy = Haze::with_visibility(20_000.0);
     let with = time(rig, &base, true, clear.clone());
     let without = time(rig, &base, false, clear.clone());
     row("cloud_shadows", with, without);
 
-    let flat = Scene {
-        settings: VolumetricClouds {
-            light_shafts: false,
-            ..VolumetricClouds::MEDIUM
-        },
-        ..base.clone()
-    };
+    let flat = medium_with(VolumetricClouds {
+        light_shafts: false,
+        ..VolumetricClouds::MEDIUM
+    });
     let with = time(rig, &flat, false, hazy.clone());
     let without = time(rig, &flat, false, clear.clone());
     row("haze", with, without);
@@ -274,13 +276,10 @@ fn measure_effects(rig: &mut CloudRig, frames: u32) -> String {
 
     // MEDIUM reads the sun of samples beyond 5 km from the shadow map; against the full light
     // march everywhere, both with the map on (a ratio below 1 is a saving).
-    let marched = Scene {
-        settings: VolumetricClouds {
-            sun_from_shadow_map_m: f32::INFINITY,
-            ..VolumetricClouds::MEDIUM
-        },
-        ..base.clone()
-    };
+    let marched = medium_with(VolumetricClouds {
+        sun_from_shadow_map_m: f32::INFINITY,
+        ..VolumetricClouds::MEDIUM
+    });
     let with = time(rig, &base, true, clear.clone());
     let without = time(rig, &marched, true, clear.clone());
     row("sun_from_shadow_map", with, without);
@@ -301,24 +300,18 @@ fn measure_effects(rig: &mut CloudRig, frames: u32) -> String {
     let without = time(rig, &base, false, clear.clone());
     row("fog", with, without);
 
-    let alone = Scene {
-        settings: VolumetricClouds {
-            temporal_blend: 1.0,
-            ..VolumetricClouds::MEDIUM
-        },
-        ..base.clone()
-    };
+    let alone = medium_with(VolumetricClouds {
+        temporal_blend: 1.0,
+        ..VolumetricClouds::MEDIUM
+    });
     let with = time(rig, &base, false, clear.clone());
     let without = time(rig, &alone, false, clear.clone());
     row("temporal_accumulation", with, without);
 
-    let unmapped = Scene {
-        settings: VolumetricClouds {
-            weather_map_size: 0,
-            ..VolumetricClouds::MEDIUM
-        },
-        ..base.clone()
-    };
+    let unmapped = medium_with(VolumetricClouds {
+        weather_map_size: 0,
+        ..VolumetricClouds::MEDIUM
+    });
     let with = time(rig, &base, false, clear.clone());
     let without = time(rig, &unmapped, false, clear);
     row("weather_map", with, without);

@@ -142,6 +142,15 @@ pub fn small_recipe() -> NoiseRecipe {
     }
 }
 
+/// A rig on [`small_recipe`]'s noise at `size` without MSAA, and the CPU twin's textures of
+/// the same noise.
+pub fn small_rig(size: UVec2) -> (CloudTextures, CloudRig) {
+    (
+        CloudTextures::from_recipe(&small_recipe()),
+        CloudRig::new(size, Msaa::Off, small_recipe()),
+    )
+}
+
 /// Marks the rig's camera.
 #[derive(Component)]
 pub struct TestCamera;

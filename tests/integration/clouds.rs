@@ -17,8 +17,7 @@ use crate::harness::{Headless, output_dir};
 #[test]
 fn showcase_scenes_match_the_cpu_reference() {
     let size = UVec2::new(96, 54);
-    let textures = CloudTextures::from_recipe(&small_recipe());
-    let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
+    let (textures, mut rig) = small_rig(size);
     for scene in showcase_scenes() {
         rig.set_scene(&scene);
         let (gpu_l, gpu_t) = rig.render(4);
@@ -476,8 +475,7 @@ fn hard_cases_stay_finite_and_physical() {
 fn far_weather_shows_toward_the_far_place() {
     use bevy_cloudscape::layers::FarCoverage;
     let size = UVec2::new(64, 36);
-    let textures = CloudTextures::from_recipe(&small_recipe());
-    let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
+    let (textures, mut rig) = small_rig(size);
     // Clear over the near place, 80 % cumulus at a far place 30 km north.
     let layer = CloudLayer {
         far_coverage: vec![FarCoverage {
@@ -689,8 +687,7 @@ fn haze_visibility_gives_koschmieder_contrast_at_the_visibility_distance() {
 #[test]
 fn haze_veils_distant_clouds_like_the_cpu_reference() {
     let size = UVec2::new(64, 36);
-    let textures = CloudTextures::from_recipe(&small_recipe());
-    let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
+    let (textures, mut rig) = small_rig(size);
     let scene = Scene {
         name: "haze_cumulus",
         camera: looking(Vec3::new(0.0, 2.0, 0.0), 6.0, 0.0),
@@ -738,8 +735,7 @@ fn haze_veils_distant_clouds_like_the_cpu_reference() {
 #[test]
 fn blue_noise_jitter_matches_the_cpu_reference() {
     let size = UVec2::new(64, 36);
-    let textures = CloudTextures::from_recipe(&small_recipe());
-    let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
+    let (textures, mut rig) = small_rig(size);
     let mut scene = showcase_scenes().remove(0);
     scene.settings = VolumetricClouds {
         jitter: true,
@@ -780,8 +776,7 @@ fn blue_noise_jitter_matches_the_cpu_reference() {
 #[test]
 fn temporal_accumulation_converges_and_follows_the_camera() {
     let size = UVec2::new(64, 36);
-    let textures = CloudTextures::from_recipe(&small_recipe());
-    let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
+    let (textures, mut rig) = small_rig(size);
     let mut scene = showcase_scenes().remove(0);
     scene.settings = VolumetricClouds {
         jitter: true,
@@ -870,8 +865,7 @@ fn temporal_accumulation_converges_and_follows_the_camera() {
 #[test]
 fn view_rays_keep_their_direction_far_from_the_origin() {
     let size = UVec2::new(64, 36);
-    let textures = CloudTextures::from_recipe(&small_recipe());
-    let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
+    let (textures, mut rig) = small_rig(size);
     let mut errors = Vec::new();
     for offset in [0.0, 80_000.0] {
         let scene = Scene {

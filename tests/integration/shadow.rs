@@ -308,8 +308,7 @@ fn cloud_shadows_darken_only_the_direct_sun_on_lit_ground() {
 #[test]
 fn light_shafts_follow_the_cloud_shadow_map() {
     let size = UVec2::new(64, 36);
-    let textures = CloudTextures::from_recipe(&small_recipe());
-    let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
+    let (textures, mut rig) = small_rig(size);
     rig.app.world().insert_resource(CloudShadows {
         enabled: true,
         resolution: 128,
@@ -415,8 +414,7 @@ fn light_shafts_follow_the_cloud_shadow_map() {
 #[test]
 fn far_cloud_samples_take_the_sun_from_the_shadow_map() {
     let size = UVec2::new(64, 36);
-    let textures = CloudTextures::from_recipe(&small_recipe());
-    let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
+    let (textures, mut rig) = small_rig(size);
     rig.app.world().insert_resource(CloudShadows {
         enabled: true,
         resolution: 256,

@@ -71,6 +71,7 @@ use super::march::ExtractedCloudView;
 /// Loads `composite.wgsl` (the shader library of the upsample weights) and `upsample.wgsl`.
 pub(crate) fn load_composite_shaders(app: &mut App) {
     load_shader_library!(app, "composite.wgsl");
+    load_shader_library!(app, "view_depth.wgsl");
     embedded_asset!(app, "upsample.wgsl");
     embedded_asset!(app, "temporal.wgsl");
 }

@@ -5,7 +5,7 @@
 // CPU twin: `reproject` and `temporal_resolve` in `src/reference/composite.rs` (whose module docs
 // explain the method). Rust side: `src/render/composite/mod.rs`.
 
-#import bevy_render::view::View
+#import bevy_cloudscape::view_depth::{view, depth_prepass}
 #import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
 #import bevy_cloudscape::composite::{
     FAR_AWAY, footprint, footprint_texel, upsample_weights, uv_to_ndc, view_direction,
@@ -24,12 +24,6 @@ struct TemporalUniforms {
     _pad1: u32,
 }
 
-@group(0) @binding(0) var<uniform> view: View;
-#ifdef MULTISAMPLED
-@group(0) @binding(1) var depth_prepass: texture_depth_multisampled_2d;
-#else
-@group(0) @binding(1) var depth_prepass: texture_depth_2d;
-#endif
 // This frame's march: (L, T), and (where the ray stopped, where its content lies) in metres.
 @group(0) @binding(2) var march_colour: texture_2d<f32>;
 @group(0) @binding(3) var march_distance: texture_2d<f32>;

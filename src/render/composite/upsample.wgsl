@@ -8,18 +8,12 @@
 // CPU twin: `upsample` in `src/reference/composite.rs`. Rust side:
 // `src/render/composite/mod.rs`.
 
-#import bevy_render::view::View
+#import bevy_cloudscape::view_depth::{view, depth_prepass}
 #import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
 #import bevy_cloudscape::composite::{
     footprint, footprint_texel, upsample_weights, uv_to_ndc, surface_distance,
 }
 
-@group(0) @binding(0) var<uniform> view: View;
-#ifdef MULTISAMPLED
-@group(0) @binding(1) var depth_prepass: texture_depth_multisampled_2d;
-#else
-@group(0) @binding(1) var depth_prepass: texture_depth_2d;
-#endif
 @group(0) @binding(2) var low_colour: texture_2d<f32>;
 @group(0) @binding(3) var low_distance: texture_2d<f32>;
 

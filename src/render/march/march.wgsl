@@ -10,7 +10,7 @@
 // was stopped at; `fragment` reads them back at binding 11 with the depth-aware upsample's
 // weights. Rust side: `src/render/march/mod.rs`.
 
-#import bevy_render::view::View
+#import bevy_cloudscape::view_depth::{view, depth_prepass}
 #import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
 #import bevy_cloudscape::clouds::{clouds, march_clouds, ray_start_jitter}
 #import bevy_cloudscape::haze::{march_haze, composite_haze, shaft_factors, shaft_ray_end, haze}
@@ -18,12 +18,6 @@
     footprint, footprint_texel, upsample_weights, uv_to_ndc, view_direction, surface_distance,
 }
 
-@group(0) @binding(0) var<uniform> view: View;
-#ifdef MULTISAMPLED
-@group(0) @binding(1) var depth_prepass: texture_depth_multisampled_2d;
-#else
-@group(0) @binding(1) var depth_prepass: texture_depth_2d;
-#endif
 
 // The shaft pass's output (x: factor below the lowest cloud base, y: above, z: where the ray
 // was stopped, m); a 1x1 stand-in when the view has no shafts (`haze.shafts` is then 0) and

@@ -1318,23 +1318,17 @@ fn march_cloud_layers(
         &bind_group,
         offset,
     );
-    match (&finish, &temporal_bind_group) {
+    // What the upsample shader composites onto the view: the march's targets, or the history
+    // the temporal pass has just written (with the march's distances either way).
+    let composite = match (&finish, &temporal_bind_group) {
         (Finish::Upsample { targets, pipeline }, _) => {
-            let group = upsample_bind_group(
-                "cloud_upsample_bind_group",
-                &targets.colour.default_view,
-                &targets.distance.default_view,
-            );
-            let attachment = target.get_color_attachment();
-            fullscreen_pass(
-                &mut ctx,
-                "cloud_upsample",
-                &[Some(attachment)],
-                pipeline,
-                &group,
-                offset,
-            );
             stats.views_upsampled += 1;
+            Some((
+                "cloud_upsample",
+                &targets.colour,
+                &targets.distance,
+                *pipeline,
+            ))
         }
         (
             Finish::Temporal {
@@ -1354,23 +1348,27 @@ fn march_cloud_layers(
                 temporal_group,
                 offset,
             );
-            let group = upsample_bind_group(
-                "cloud_history_composite_bind_group",
-                &history.write.default_view,
-                &targets.distance.default_view,
-            );
-            let attachment = target.get_color_attachment();
-            fullscreen_pass(
-                &mut ctx,
-                "cloud_history_composite",
-                &[Some(attachment)],
-                composite,
-                &group,
-                offset,
-            );
             stats.views_accumulated += 1;
+            Some((
+                "cloud_history_composite",
+                &history.write,
+                &targets.distance,
+                *composite,
+            ))
         }
-        _ => {}
+        _ => None,
+    };
+    if let Some((label, colour, distance, pipeline)) = composite {
+        let group = upsample_bind_group(label, &colour.default_view, &distance.default_view);
+        let attachment = target.get_color_attachment();
+        fullscreen_pass(
+            &mut ctx,
+            label,
+            &[Some(attachment)],
+            pipeline,
+            &group,
+            offset,
+        );
     }
     ctx.command_encoder().pop_debug_group();
     time_span.end(ctx.command_encoder());
