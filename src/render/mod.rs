@@ -54,7 +54,9 @@ pub struct VolumetricClouds {
     pub quality: CloudQuality,
     /// Steps along the view ray through each layer interval (1–1024).
     pub primary_steps: u32,
-    /// Steps of the light march toward the sun from each sample (0–64; 0 = unshadowed).
+    /// Steps of the light march toward the sun from each sample (0–64; 0 = unshadowed), over
+    /// a light path up to 2 km long; a longer path (a low sun's) takes proportionally more, up
+    /// to 64 ([`crate::reference::render::light_step_count`]).
     pub light_steps: u32,
     /// How fast steps grow with distance from the camera, 1/m: a step at distance `d` is
     /// `1 + step_growth · d` times longer than one at the camera. 0 keeps steps even.

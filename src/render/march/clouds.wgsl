@@ -205,8 +205,14 @@ const FAR_BLEND_START: f32 = 0.3;
 const MAX_SCATTERING_OCTAVES: u32 = 8u;
 const MAX_PRIMARY_STEPS: u32 = 1024u;
 const MAX_LIGHT_STEPS: u32 = 64u;
+const LIGHT_STEP_SPAN_M: f32 = 2000.0;
 const CHEAP_STRIDE: u32 = 4u;
 const EMPTY_STEPS_TO_CHEAP: u32 = 4u;
+const MAX_STEP_OPTICAL_DEPTH: f32 = 1.0;
+const MAX_SUBSTEPS: u32 = 8u;
+const MAX_PARTS: u32 = 32u;
+const CLEAR_STEP_OPTICAL_DEPTH: f32 = 0.1;
+const EDGE_SEARCH_STEPS: u32 = 6u;
 const PRECIPITATION_ABSORPTION: f32 = 0.5;
 const MAX_DETAIL_EROSION: f32 = 0.9;
 const DETAIL_TRANSITION_HEIGHT: f32 = 0.2;
@@ -644,10 +650,20 @@ fn point_mu_sun(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f32) -
     return clamp(((radius + h) * dot(sun, up) + dot(sun, position_m)) / (radius + altitude_m), -1.0, 1.0);
 }
 
+// Steps of a light march distance_m long: light_steps over LIGHT_STEP_SPAN_M or less, in
+// proportion beyond (rounded), at most MAX_LIGHT_STEPS. Rust: `light_step_count`.
+fn light_step_count(light_steps: u32, distance_m: f32) -> u32 {
+    let scaled = floor(f32(light_steps) * distance_m / LIGHT_STEP_SPAN_M + 0.5);
+    // NaN (and negatives) add no steps.
+    let extra = select(0u, u32(min(scaled, f32(MAX_LIGHT_STEPS))), scaled >= 0.0);
+    return min(max(light_steps, extra), MAX_LIGHT_STEPS);
+}
+
 // Optical depth toward the sun from `position_m` (relative to the camera at altitude h with
-// vertical up) at `altitude_m`: light_steps steps with boundaries at D (k/n)^2, each sampled at
-// its midpoint; negative when the ground blocks the sun. Rust: `sun_optical_depth`.
-fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f32, footprint_m: f32, max_distance_m: f32, light_steps: u32) -> f32 {
+// vertical up) at `altitude_m`: light_steps steps with boundaries at D (k/n)^2, each sampled
+// `offset` (0-1, the view ray's jitter) of the way through; negative when the ground blocks the
+// sun. Rust: `sun_optical_depth`.
+fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f32, footprint_m: f32, max_distance_m: f32, light_steps: u32, offset: f32) -> f32 {
     let radius = clouds.planet_radius_m;
     let sun = clouds.sun_direction.xyz;
     let mu_sun = point_mu_sun(h, up, position_m, altitude_m);
@@ -656,7 +672,7 @@ fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f
         return -1.0;
     }
     let distance = min(full_distance, max_distance_m);
-    let steps = min(light_steps, MAX_LIGHT_STEPS);
+    let steps = light_step_count(light_steps, distance);
     if steps == 0u || distance == 0.0 {
         return 0.0;
     }
@@ -668,8 +684,8 @@ fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f
         let u1 = f32(k + 1u) / n;
         let s0 = distance * u0 * u0;
         let s1 = distance * u1 * u1;
-        let s = 0.5 * (s0 + s1);
         let ds = s1 - s0;
+        let s = s0 + offset * ds;
         let point = position_m + sun * s;
         let altitude = altitude_along_ray(altitude_m, mu_sun, s, radius);
         let horizontal = vec2<f32>(dot(point, axes.x), dot(point, axes.z));
@@ -763,17 +779,19 @@ fn cheap_extinction(ray: ptr<function, MarchRay>, t: f32) -> f32 {
     return total_extinction(horizontal, altitude, t * clouds.pixel_angle_rad, false);
 }
 
-// One full-detail step over [ta, tb] sampled at the jittered point; true if it found cloud.
-// Rust: `Ray::step`.
-fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32) -> bool {
-    let dt = tb - ta;
-    let t = ta + (*ray).jitter * dt;
+// Extinction, scattering and ambient source of the medium at one point. Rust: `Medium`.
+struct Medium {
+    extinction: f32,
+    scattering: f32,
+    ambient: vec3<f32>,
+}
+
+// The medium at distance t, full detail. Rust: `Ray::medium`.
+fn ray_medium(ray: ptr<function, MarchRay>, t: f32) -> Medium {
     let altitude = ray_altitude(ray, t);
     let horizontal = (*ray).horizontal_direction * t;
     let footprint = t * clouds.pixel_angle_rad;
-    var extinction = 0.0;
-    var scattering = 0.0;
-    var ambient = vec3<f32>(0.0);
+    var medium = Medium(0.0, 0.0, vec3<f32>(0.0));
     let count = cloud_layer_count();
     for (var i = 0u; i < count; i++) {
         let layer = cloud_layers[i];
@@ -782,14 +800,99 @@ fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32) -> bool {
             let sigma_s = sigma * scattering_albedo(layer);
             // Ambient sky light grows from the base to the top (seed 002, "Day / Night Cycle").
             let height = saturate((altitude - layer.base_m) / (layer.top_m - layer.base_m));
-            ambient += sigma_s * mix(clouds.ambient_bottom.xyz, clouds.ambient_top.xyz, height);
-            extinction += sigma;
-            scattering += sigma_s;
+            medium.ambient += sigma_s * mix(clouds.ambient_bottom.xyz, clouds.ambient_top.xyz, height);
+            medium.extinction += sigma;
+            medium.scattering += sigma_s;
         }
     }
-    if !(extinction > 0.0) {
-        return false;
+    return medium;
+}
+
+// Weight of the thin-parts march of a dense step of optical thickness x: 0 up to
+// MAX_STEP_OPTICAL_DEPTH, 1 from twice that, linear between. Rust: `dense_step_weight`.
+fn dense_step_weight(x: f32) -> f32 {
+    return saturate(x / MAX_STEP_OPTICAL_DEPTH - 1.0);
+}
+
+// One full-detail step over [ta, tb] sampled at the jittered point; returns its optical
+// thickness there (0: no cloud). A
+// dense step (optical thickness above MAX_STEP_OPTICAL_DEPTH at its sample) finds the cloud's
+// edge after clear_from (negative: inside a cloud, no search) and marches from it in thin parts,
+// mixed with the one-sample step by dense_step_weight so the result is continuous in the
+// density. Rust: `Ray::step`.
+fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32, clear_from: f32) -> f32 {
+    let dt = tb - ta;
+    let t = ta + (*ray).jitter * dt;
+    let medium = ray_medium(ray, t);
+    if !(medium.extinction > 0.0) {
+        return 0.0;
     }
+    let x = medium.extinction * dt;
+    let weight = dense_step_weight(x);
+    if !(weight > 0.0) {
+        integrate_step(ray, t, dt, medium);
+        return x;
+    }
+    // The one-sample step, mixed in below the full weight.
+    var one = *ray;
+    if weight < 1.0 {
+        integrate_step(&one, t, dt, medium);
+    }
+    var begin = ta;
+    if clear_from >= 0.0 && clear_from < t {
+        var lo = clear_from;
+        var hi = t;
+        for (var i = 0u; i < EDGE_SEARCH_STEPS; i++) {
+            let mid = 0.5 * (lo + hi);
+            if ray_medium(ray, mid).extinction > 0.0 {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        begin = lo;
+    }
+    let part_length = MAX_STEP_OPTICAL_DEPTH / medium.extinction;
+    var cloudy = 0u;
+    for (var i = 0u; i < MAX_PARTS; i++) {
+        if !(begin < tb) {
+            break;
+        }
+        var to = min(begin + part_length, tb);
+        if i + 1u == MAX_PARTS || cloudy + 1u >= MAX_SUBSTEPS {
+            to = tb;
+        }
+        let ts = begin + (*ray).jitter * (to - begin);
+        let part = ray_medium(ray, ts);
+        if part.extinction > 0.0 {
+            integrate_step(ray, ts, to - begin, part);
+            cloudy += 1u;
+            if (*ray).transmittance <= clouds.transmittance_cutoff {
+                break;
+            }
+        }
+        begin = to;
+    }
+    if weight < 1.0 {
+        let amount = 1.0 - weight;
+        (*ray).optical_depth = mix((*ray).optical_depth, one.optical_depth, amount);
+        (*ray).transmittance = exp(-(*ray).optical_depth);
+        (*ray).radiance = mix((*ray).radiance, one.radiance, amount);
+        (*ray).tail = mix((*ray).tail, one.tail, amount);
+        (*ray).opacity_distance = mix((*ray).opacity_distance, one.opacity_distance, amount);
+        (*ray).opacity = mix((*ray).opacity, one.opacity, amount);
+    }
+    return x;
+}
+
+// Integrates the medium sampled at t over a step dt long: the light toward the sun, the source
+// and the analytic integral across the step. Rust: `Ray::integrate`.
+fn integrate_step(ray: ptr<function, MarchRay>, t: f32, dt: f32, medium: Medium) {
+    let altitude = ray_altitude(ray, t);
+    let footprint = t * clouds.pixel_angle_rad;
+    let extinction = medium.extinction;
+    let scattering = medium.scattering;
+    let ambient = medium.ambient;
     var sun = 0.0;
     if (*ray).sun_on {
         let position = (*ray).direction * t;
@@ -802,12 +905,12 @@ fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32) -> bool {
         if t >= clouds.sun_from_shadow_map_m && shadow_map_covers(uv) {
             let mu_sun = point_mu_sun((*ray).camera_altitude_m, (*ray).up, position, altitude);
             let end_altitude = altitude_along_ray(altitude, mu_sun, near, clouds.planet_radius_m);
-            optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, near, min(clouds.light_steps, SHADOW_MAP_NEAR_STEPS));
+            optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, near, min(clouds.light_steps, SHADOW_MAP_NEAR_STEPS), (*ray).jitter);
             if optical_depth >= 0.0 {
                 optical_depth += map_sun_optical_depth(uv, end_altitude);
             }
         } else {
-            optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, FAR_AWAY, clouds.light_steps);
+            optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, FAR_AWAY, clouds.light_steps, (*ray).jitter);
         }
         if optical_depth >= 0.0 {
             sun = multiple_scattering(optical_depth, (*ray).cos_sun);
@@ -823,7 +926,6 @@ fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32) -> bool {
     (*ray).optical_depth += x;
     (*ray).transmittance = exp(-(*ray).optical_depth);
     add_opacity(ray, before - (*ray).transmittance, t);
-    return true;
 }
 
 // Primary steps across an interval span_m long: primary_steps, but no more than one per
@@ -853,6 +955,8 @@ fn march_interval(ray: ptr<function, MarchRay>, start: f32, end: f32) -> bool {
     var unmarched = 0u;
     // The end of the stride whose cheap sample found cloud: detail goes on at least to here.
     var detail_until = 0u;
+    // After this point nothing has been integrated; negative inside a cloud (Rust: `clear_from`).
+    var clear_from = NO_HIT;
     // Rust: `march_passes`.
     for (var guard = 0u; guard < 4u * steps + 4u * CHEAP_STRIDE + 2u; guard++) {
         if k >= steps {
@@ -869,6 +973,7 @@ fn march_interval(ray: ptr<function, MarchRay>, start: f32, end: f32) -> bool {
                 empty = 0u;
                 detail_until = k2;
                 k = max(select(0u, k - CHEAP_STRIDE, k >= CHEAP_STRIDE), unmarched);
+                clear_from = start + span * step_warp(f32(k) / n, beta);
             } else {
                 k = k2;
             }
@@ -876,7 +981,10 @@ fn march_interval(ray: ptr<function, MarchRay>, start: f32, end: f32) -> bool {
         }
         let ta = start + span * step_warp(f32(k) / n, beta);
         let tb = start + span * step_warp(f32(k + 1u) / n, beta);
-        if march_step(ray, ta, tb) {
+        let x = march_step(ray, ta, tb, clear_from);
+        // A thin step counts as clear for the next one's edge search (Rust: `march_interval`).
+        clear_from = select(NO_HIT, ta + (*ray).jitter * (tb - ta), x < CLEAR_STEP_OPTICAL_DEPTH);
+        if x > 0.0 {
             empty = 0u;
             if (*ray).transmittance <= clouds.transmittance_cutoff {
                 // The light the rest of the medium would add, as if it went on like the last
