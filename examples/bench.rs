@@ -467,18 +467,43 @@ fn error_budget(scene: &Scene) {
     let reference = image(512, 64, 0.0, 2.0e-5, 0.5);
     let mean = reference.iter().sum::<f64>() / reference.len() as f64;
     println!("{}: against 512 primary and 64 light steps", scene.name);
+    let (low, high, ultra) = (
+        VolumetricClouds::LOW,
+        VolumetricClouds::HIGH,
+        VolumetricClouds::ULTRA,
+    );
+    let (hp, hl, hc, hg) = (
+        high.primary_steps,
+        high.light_steps,
+        high.transmittance_cutoff,
+        high.step_growth,
+    );
     let rows: [(&str, u32, u32, f32, f32, bool); 11] = [
-        ("512 primary, 16 light", 512, 16, 0.0, 2.0e-5, false),
-        ("512 primary, 32 light", 512, 32, 0.0, 2.0e-5, false),
-        ("HIGH", 96, 8, 0.01, 2.0e-5, false),
-        ("HIGH, jitter mean", 96, 8, 0.01, 2.0e-5, true),
-        ("HIGH, 32 light", 96, 32, 0.01, 2.0e-5, false),
-        ("HIGH, 512 primary", 512, 8, 0.01, 2.0e-5, false),
-        ("HIGH, 512 primary, mean", 512, 8, 0.01, 2.0e-5, true),
-        ("HIGH, no cut-off", 96, 8, 0.0, 2.0e-5, false),
-        ("HIGH, even steps", 96, 8, 0.01, 0.0, false),
-        ("ULTRA, jitter mean", 192, 12, 0.002, 2.0e-5, true),
-        ("LOW steps, jitter mean", 24, 3, 0.01, 2.0e-5, true),
+        ("512 primary, 16 light", 512, 16, 0.0, hg, false),
+        ("512 primary, 32 light", 512, 32, 0.0, hg, false),
+        ("HIGH", hp, hl, hc, hg, false),
+        ("HIGH, jitter mean", hp, hl, hc, hg, true),
+        ("HIGH, 32 light", hp, 32, hc, hg, false),
+        ("HIGH, 512 primary", 512, hl, hc, hg, false),
+        ("HIGH, 512 primary, mean", 512, hl, hc, hg, true),
+        ("HIGH, no cut-off", hp, hl, 0.0, hg, false),
+        ("HIGH, even steps", hp, hl, hc, 0.0, false),
+        (
+            "ULTRA, jitter mean",
+            ultra.primary_steps,
+            ultra.light_steps,
+            ultra.transmittance_cutoff,
+            ultra.step_growth,
+            true,
+        ),
+        (
+            "LOW steps, jitter mean",
+            low.primary_steps,
+            low.light_steps,
+            low.transmittance_cutoff,
+            low.step_growth,
+            true,
+        ),
     ];
     for (name, primary, light, cutoff, growth, mean_of_jitters) in rows {
         let test = if mean_of_jitters {

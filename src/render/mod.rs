@@ -177,10 +177,12 @@ impl VolumetricClouds {
         min_step_m: 20.0,
         weather_map_size: crate::reference::weather_map::DEFAULT_WEATHER_MAP_SIZE,
     };
-    /// More steps for close-ups and stills.
+    /// More steps for close-ups and stills. In the `bench` example (160×90, lavapipe) it comes
+    /// within 1.7 % of a converged march in cumulus and 0.35 % in stratus, 2.0–2.3 % in the
+    /// grazing and in-cloud views and 11 % at sunset, at 0.4–3 % of the reference's time.
     pub const HIGH: Self = Self {
         quality: CloudQuality::High,
-        primary_steps: 96,
+        primary_steps: 192,
         light_steps: 8,
         haze_steps: 24,
         sun_from_shadow_map_m: 10_000.0,
@@ -189,7 +191,7 @@ impl VolumetricClouds {
     /// Many steps: screenshots and references.
     pub const ULTRA: Self = Self {
         quality: CloudQuality::Ultra,
-        primary_steps: 192,
+        primary_steps: 384,
         light_steps: 12,
         transmittance_cutoff: 0.002,
         haze_steps: 48,
