@@ -955,7 +955,7 @@ fn march_interval(ray: ptr<function, MarchRay>, start: f32, end: f32) -> bool {
     var unmarched = 0u;
     // The end of the stride whose cheap sample found cloud: detail goes on at least to here.
     var detail_until = 0u;
-    // After this point nothing has been integrated; negative inside a cloud (Rust: `clear_from`).
+    // Where the next dense step's edge search starts; negative inside a cloud (Rust: `clear_from`).
     var clear_from = NO_HIT;
     // Rust: `march_passes`.
     for (var guard = 0u; guard < 4u * steps + 4u * CHEAP_STRIDE + 2u; guard++) {
