@@ -2,7 +2,7 @@
 //! converged reference, and reports the time and the error of each.
 //!
 //! ```text
-//! cargo run --release --example bench -- [--width W] [--height H] [--frames N] [--out DIR] [--no-jitter] [--effects-only] [--error-budget]
+//! cargo run --release --example bench -- [--width W] [--height H] [--frames N] [--out DIR] [--scene NAME] [--reference-steps N] [--no-jitter] [--effects-only] [--error-budget]
 //! ```
 //!
 //! Scenes: cumulus at noon, overcast stratus, sunset behind altocumulus, the camera inside a
@@ -23,7 +23,13 @@
 //! - `bench.png`: error (relative RMSE, vertical, log scale 10⁻⁴ to 10) against time relative
 //!   to the reference (horizontal, log scale 10⁻³ to 1), one dot per scene and preset: LOW red,
 //!   MEDIUM yellow, HIGH green, ULTRA blue; grey lines at every decade.
-//! - `images/SCENE_PRESET.png`: each render beside the reference.
+//! - `images/SCENE_PRESET.png`: each render beside the reference, and a third panel with the
+//!   difference of their linear luminance, `|Δ| / mean(reference)`, white at 20 % and above.
+//!
+//! `--scene NAME` measures only that scene (and skips the effects); the log then also says
+//! which share of the squared error the worst 1 % of pixels carry. `--reference-steps N` sets
+//! the reference's primary steps (default 512); with any other count the 512-step reference is
+//! measured against it as one more row, `REFERENCE_512`: how far the default is converged.
 //! - `effects.csv`: `effect,scene,ms_with,ms_without,ratio`, the median whole-frame time with
 //!   and without each optional effect (the cloud shadow map at 256², haze, light shafts, rain,
 //!   fog, temporal accumulation, the weather map; see `measure_effects`), on the cumulus scene
@@ -64,11 +70,15 @@ struct Args {
     effects_only: bool,
     /// Print where the error comes from ([`error_budget`]) instead of timing anything.
     error_budget: bool,
+    /// Measure only the bench scene of this name (and no effects).
+    scene: Option<String>,
+    /// Primary steps of the reference (default [`REFERENCE_STEPS`]).
+    reference_steps: u32,
 }
 
 fn parse_args() -> Result<Args, String> {
     let usage = "usage: bench [--width W] [--height H] [--frames N] [--out DIR] [--no-jitter] \
-                 [--effects-only] [--error-budget]";
+                 [--scene NAME] [--reference-steps N] [--effects-only] [--error-budget]";
     let mut args = Args {
         size: UVec2::new(160, 90),
         frames: 5,
@@ -76,6 +86,8 @@ fn parse_args() -> Result<Args, String> {
         no_jitter: false,
         effects_only: false,
         error_budget: false,
+        scene: None,
+        reference_steps: REFERENCE_STEPS,
     };
     let mut it = std::env::args().skip(1);
     while let Some(arg) = it.next() {
@@ -90,9 +102,20 @@ fn parse_args() -> Result<Args, String> {
             "--width" => args.size.x = number("--width")?,
             "--height" => args.size.y = number("--height")?,
             "--frames" => args.frames = number("--frames")?,
+            "--reference-steps" => args.reference_steps = number("--reference-steps")?,
             "--no-jitter" => args.no_jitter = true,
             "--effects-only" => args.effects_only = true,
             "--error-budget" => args.error_budget = true,
+            "--scene" => {
+                let name = it
+                    .next()
+                    .ok_or(format!("--scene needs a scene name ({usage})"))?;
+                let names: Vec<_> = bench_scenes().iter().map(|s| s.name).collect();
+                if !names.contains(&name.as_str()) {
+                    return Err(format!("--scene: {name:?} is not one of {names:?}"));
+                }
+                args.scene = Some(name);
+            }
             "--out" => {
                 args.out = it
                     .next()
@@ -105,11 +128,15 @@ fn parse_args() -> Result<Args, String> {
     Ok(args)
 }
 
-/// The converged reference: many steps, no jitter, no early exit.
-fn reference_settings() -> VolumetricClouds {
+/// Primary steps per interval of the converged reference (`--reference-steps`).
+const REFERENCE_STEPS: u32 = 512;
+
+/// The converged reference: `steps` primary steps per interval, 64 light steps, no jitter, no
+/// early exit.
+fn reference_settings(steps: u32) -> VolumetricClouds {
     VolumetricClouds {
         quality: CloudQuality::Custom,
-        primary_steps: 512,
+        primary_steps: steps,
         light_steps: 64,
         transmittance_cutoff: 0.0,
         jitter: false,
@@ -337,6 +364,32 @@ fn errors_of(image: &[f64], reference: &[f64]) -> (f64, f64) {
     ((sum / n).sqrt() / mean.max(f64::MIN_POSITIVE), max)
 }
 
+/// Relative difference at which the difference panel turns white.
+const DIFFERENCE_WHITE: f64 = 0.2;
+
+/// The difference panel of a bench strip: each pixel's `|Δ|` of linear luminance over the
+/// reference's mean, as grey (white at [`DIFFERENCE_WHITE`]), and the share of the summed `Δ²`
+/// that the worst 1 % of pixels carry (1 when the error sits in a few pixels, 0.01 when it is
+/// spread evenly).
+fn difference_map(image: &[[f32; 3]], reference: &[[f32; 3]]) -> (Vec<[f32; 3]>, f64) {
+    let mean = reference.iter().map(luminance).sum::<f64>() / reference.len().max(1) as f64;
+    let relative: Vec<f64> = image
+        .iter()
+        .zip(reference)
+        .map(|(a, b)| (luminance(a) - luminance(b)).abs() / mean.max(f64::MIN_POSITIVE))
+        .collect();
+    let mut squares: Vec<f64> = relative.iter().map(|d| d * d).collect();
+    squares.sort_by(|a, b| b.total_cmp(a));
+    let total: f64 = squares.iter().sum();
+    let worst = squares.len().div_ceil(100);
+    let share = squares[..worst].iter().sum::<f64>() / total.max(f64::MIN_POSITIVE);
+    let panel = relative
+        .iter()
+        .map(|d| [(d / DIFFERENCE_WHITE).min(1.0) as f32; 3])
+        .collect();
+    (panel, share)
+}
+
 struct Row {
     scene: &'static str,
     preset: &'static str,
@@ -544,8 +597,16 @@ fn run(args: &Args) -> Result<(), String> {
         return Ok(());
     }
     let mut rows = Vec::new();
-    for scene in bench_scenes() {
-        let reference = measure(&mut rig, &scene, &reference_settings(), args.frames);
+    let scenes = bench_scenes()
+        .into_iter()
+        .filter(|s| args.scene.as_deref().is_none_or(|name| name == s.name));
+    for scene in scenes {
+        let reference = measure(
+            &mut rig,
+            &scene,
+            &reference_settings(args.reference_steps),
+            args.frames,
+        );
         eprintln!("{}: reference {:.1} ms", scene.name, reference.ms);
         rows.push(Row {
             scene: scene.name,
@@ -557,16 +618,28 @@ fn run(args: &Args) -> Result<(), String> {
             max_abs: 0.0,
             nan_count: reference.nan_count,
         });
-        for (preset, mut settings, colour) in presets() {
+        // Against a finer reference, the default one is measured too: how far it is converged.
+        let default_reference = (args.reference_steps != REFERENCE_STEPS).then(|| {
+            (
+                "REFERENCE_512",
+                reference_settings(REFERENCE_STEPS),
+                [0, 0, 0],
+            )
+        });
+        for (preset, mut settings, colour) in presets().into_iter().chain(default_reference) {
             settings.jitter &= !args.no_jitter;
             let measured = measure(&mut rig, &scene, &settings, args.frames);
             let (rel_rmse, max_abs) = errors(&measured.composite, &reference.composite);
+            let (difference, worst_share) =
+                difference_map(&measured.composite, &reference.composite);
             eprintln!(
-                "{}: {preset} {:.1} ms ({:.1} % of the reference), relative RMSE {:.2} %",
+                "{}: {preset} {:.1} ms ({:.1} % of the reference), relative RMSE {:.2} % \
+                 (the worst 1 % of pixels carry {:.0} % of it squared)",
                 scene.name,
                 measured.ms,
                 100.0 * measured.ms / reference.ms.max(1e-9),
-                100.0 * rel_rmse
+                100.0 * rel_rmse,
+                100.0 * worst_share
             );
             save_strip(
                 &args
@@ -574,7 +647,7 @@ fn run(args: &Args) -> Result<(), String> {
                     .join("images")
                     .join(format!("{}_{preset}.png", scene.name)),
                 args.size,
-                &[&measured.composite, &reference.composite],
+                &[&measured.composite, &reference.composite, &difference],
             );
             rows.push(Row {
                 scene: scene.name,
@@ -587,6 +660,9 @@ fn run(args: &Args) -> Result<(), String> {
                 nan_count: measured.nan_count,
             });
         }
+    }
+    if args.scene.is_some() {
+        return Ok(());
     }
     let mut csv = String::from(
         "scene,preset,width,height,ms_per_frame,ref_ms_per_frame,rel_rmse,max_abs_err,nan_count\n",

@@ -153,6 +153,15 @@ impl CloudKind {
             Self::Cirrocumulus => (7_000.0, 7_400.0, 0.4, 0.001_6, 15_000.0, 0.1),
             Self::Cumulonimbus => (1_000.0, 10_000.0, 0.3, 0.1, 30_000.0, 0.2),
         };
+        // Heaps grow tallest where the weather is most cloudy and round off toward their edges;
+        // sheets keep a level top.
+        let coverage_height = match self {
+            Self::Cumulus => 1.0,
+            Self::Stratocumulus | Self::Altocumulus | Self::Cirrocumulus | Self::Cumulonimbus => {
+                0.5
+            }
+            Self::Stratus | Self::Altostratus | Self::Cirrus | Self::Cirrostratus => 0.0,
+        };
         KindDefaults {
             base_m,
             top_m,
@@ -160,6 +169,7 @@ impl CloudKind {
             density,
             weather_map_scale_m,
             skew,
+            coverage_height,
         }
     }
 }
@@ -186,6 +196,8 @@ pub struct KindDefaults {
     pub weather_map_scale_m: f32,
     /// Horizontal shift per metre of height, downwind (dimensionless).
     pub skew: f32,
+    /// How much the local coverage sets the clouds' height, 0–1 ([`CloudLayer::coverage_height`]).
+    pub coverage_height: f32,
 }
 
 /// One control point of a [`DensityProfile`].
@@ -564,6 +576,15 @@ pub struct CloudLayer {
     /// Vertical density profile: Aetherius' shape-altering curve. Default:
     /// [`DensityProfile::for_kind`].
     pub profile: DensityProfile,
+    /// How much the weather's local coverage sets the clouds' height, 0–1 (dimensionless).
+    /// Where the weather pattern gives a local coverage `κ` (1 in the middle of a cloudy patch,
+    /// falling to 0 at its edge), the profile is stretched over `1 − s · (1 − κ)²` of the
+    /// layer's thickness. At 1 a cloud's top comes down toward its edges, so heaps round into
+    /// domes; at 0 every cloud reaches the layer's top and stands as a wall where the coverage
+    /// ends.
+    /// Default: the kind's (cumulus 1; stratocumulus, altocumulus, cirrocumulus and
+    /// cumulonimbus 0.5; sheets and cirrus 0).
+    pub coverage_height: f32,
     /// Period of the layer's 2D weather noise, metres: the horizontal size of the pattern of
     /// clouds and gaps (> 0). Default: the kind's, e.g. 12 000 m for cumulus.
     pub weather_map_scale_m: f32,
@@ -642,6 +663,7 @@ impl CloudLayer {
             coverage: defaults.coverage,
             density: defaults.density,
             profile: DensityProfile::for_kind(kind),
+            coverage_height: defaults.coverage_height,
             weather_map_scale_m: defaults.weather_map_scale_m,
             wind_m_s: [0.0, 0.0],
             skew: defaults.skew,
@@ -705,6 +727,7 @@ impl CloudLayer {
     /// - `skew`: a non-finite value becomes the kind's default.
     /// - `wind_m_s`: a non-finite component becomes 0.
     /// - `precipitation`: clamped to 0–1; NaN becomes 0.
+    /// - `coverage_height`: clamped to 0–1; NaN becomes the kind's default.
     /// - `rain_mm_per_h`: a negative or NaN value becomes 0; +∞ is kept as `f32::MAX`.
     /// - `profile`: [`DensityProfile::sanitize`].
     /// - `far_coverage`: unusable entries ([`FarCoverage::is_usable`]) removed, coverages
@@ -738,6 +761,7 @@ impl CloudLayer {
         self.wind_m_s = self.wind_m_s.map(|v| finite_or(v, 0.0));
         self.skew = finite_or(self.skew, defaults.skew);
         self.precipitation = unit(self.precipitation, 0.0);
+        self.coverage_height = unit(self.coverage_height, defaults.coverage_height);
         self.rain_mm_per_h = if self.rain_mm_per_h > 0.0 {
             self.rain_mm_per_h.min(f32::MAX)
         } else {
@@ -1078,10 +1102,12 @@ mod tests {
         layer.wind_m_s = [f32::NAN, 3.0];
         layer.rain_mm_per_h = -1.0;
         layer.weather_map_scale_m = 0.0;
+        layer.coverage_height = 3.0;
         layer.weather_driven = false;
         let clean = layer.sanitized();
         assert_eq!(clean.coverage, 1.0);
         assert_eq!(clean.precipitation, 0.0);
+        assert_eq!(clean.coverage_height, 1.0);
         assert_eq!((clean.base_m, clean.top_m), (3_200.0, 4_000.0));
         assert_eq!(clean.density, 0.0);
         assert_eq!(clean.wind_m_s, [0.0, 3.0]);
@@ -1097,6 +1123,7 @@ mod tests {
         nan.top_m = f32::NEG_INFINITY;
         nan.skew = f32::NAN;
         nan.precipitation = f32::NAN;
+        nan.coverage_height = f32::NAN;
         nan.rain_mm_per_h = f32::NAN;
         nan.weather_map_scale_m = f32::INFINITY;
         let clean = nan.sanitized();

@@ -320,6 +320,12 @@ pub struct MarchLayer {
     /// Precipitation darkening, 0–1: lowers the scattering albedo by up to
     /// [`PRECIPITATION_ABSORPTION`]. Default 0.
     pub precipitation: f64,
+    /// How much the local coverage `κ` sets the clouds' height, 0–1 (dimensionless): the
+    /// profile is read at the height fraction over [`coverage_height_scale`], so where the
+    /// weather thins out toward a cloud's edge its top comes down, and the cloud rounds into a
+    /// dome instead of standing as a wall at the edge of the coverage. 0: every cloud reaches
+    /// the layer's top. Values outside 0–1 are clamped, NaN reads 0. Default 0.
+    pub coverage_height: f64,
     /// Offset added to horizontal positions before the weather look-up, metres. The CPU
     /// accumulates wind and the camera position in f64 and wraps them by the weather period
     /// ([`MarchLayer::set_noise_origin`]), so f32 never sees a large number. Default 0.
@@ -364,6 +370,7 @@ impl Default for MarchLayer {
             detail_erosion: 0.35,
             shape_strength: 1.0,
             precipitation: 0.0,
+            coverage_height: 0.0,
             weather_offset_m: [0.0; 2],
             shape_offset_m: [0.0; 2],
             detail_offset_m: [0.0; 2],
@@ -991,6 +998,22 @@ pub fn weather_coverage(
     kappa
 }
 
+/// The fraction of the layer's thickness the profile is stretched over where the local coverage
+/// is `κ` (0–1), for [`MarchLayer::coverage_height`] `s`: `1 − s · (1 − κ)²`. 1 at full coverage
+/// or `s = 0`. At `s = 1` it is `κ (2 − κ)`: a cloud's top falls steeply at the edge of its
+/// coverage and levels off toward the middle, a rounded dome rather than the cone a linear
+/// `κ` would give (half coverage reaches three quarters of the way up). Never below `κ`, so
+/// positive wherever `κ` is. WGSL twin: `coverage_height_scale`.
+pub fn coverage_height_scale(coverage_height: f64, kappa: f64) -> f64 {
+    let s = if coverage_height.is_nan() {
+        0.0
+    } else {
+        coverage_height.clamp(0.0, 1.0)
+    };
+    let gap = 1.0 - kappa;
+    1.0 - s * gap * gap
+}
+
 /// Linear remap of `value` from `[old_min, old_max]` to `[new_min, new_max]` (seed 002, Figure
 /// 30). WGSL twin: `remap`.
 pub fn remap(value: f64, old_min: f64, old_max: f64, new_min: f64, new_max: f64) -> f64 {
@@ -1053,12 +1076,15 @@ pub fn layer_density(
     }
     let height_above_base = altitude_m - layer.base_m;
     let height_fraction = height_above_base / (layer.top_m - layer.base_m);
-    let profile = profile_density(layer, height_fraction);
-    if !is_positive(profile) {
-        return 0.0;
-    }
     let kappa = weather_coverage(&textures.weather, layer, horizontal_m, height_above_base);
     if !is_positive(kappa) {
+        return 0.0;
+    }
+    let profile = profile_density(
+        layer,
+        height_fraction / coverage_height_scale(layer.coverage_height, kappa),
+    );
+    if !is_positive(profile) {
         return 0.0;
     }
     let strength = saturate(layer.shape_strength);
@@ -2213,6 +2239,82 @@ mod tests {
         }
         let worst = worst.map(|e| format!("{e:.2e}"));
         println!("largest relative error of L at 8, 32, 128, 512 steps: {worst:?}");
+    }
+
+    /// Height of the highest cloudy point above `horizontal_m`, as a fraction of the layer
+    /// (0 when the column is clear), found on a 1 000-point grid.
+    fn cloud_top_fraction(layer: &MarchLayer, horizontal_m: [f64; 2]) -> f64 {
+        let thickness = layer.top_m - layer.base_m;
+        (0..=1000)
+            .rev()
+            .map(|i| f64::from(i) / 1000.0)
+            .find(|&h| {
+                let altitude = layer.base_m + h * thickness;
+                layer_density(textures(), layer, horizontal_m, altitude, 0.0, false) > 0.0
+            })
+            .unwrap_or(0.0)
+    }
+
+    #[test]
+    fn clouds_come_down_toward_the_edge_of_the_coverage() {
+        // No shape noise: the cloud is the profile remapped by κ. Along a line across the
+        // weather pattern, at full coverage height each column's top comes down by the factor
+        // κ (2 − κ) against the same layer at coverage height 0.
+        let layer = |coverage_height| MarchLayer {
+            coverage: 0.5,
+            shape_strength: 0.0,
+            coverage_height,
+            ..MarchLayer::default()
+        };
+        let (domed, walled) = (layer(1.0), layer(0.0));
+        let (mut partial, mut full) = (0, 0);
+        for i in 0..400 {
+            let x = [f64::from(i) * 50.0, 1_234.0];
+            let kappa = weather_coverage(&textures().weather, &domed, x, 0.0);
+            let (domed_top, walled_top) = (
+                cloud_top_fraction(&domed, x),
+                cloud_top_fraction(&walled, x),
+            );
+            if !is_positive(kappa) {
+                assert_eq!((domed_top, walled_top), (0.0, 0.0), "clear at {x:?}");
+                continue;
+            }
+            // With no noise a point is cloudy where the profile exceeds 1 − κ, and κ is the same
+            // at every height (no skew): the domed column is the walled one squeezed by
+            // κ (2 − κ).
+            assert!(walled_top > 0.0, "cloudy at κ = {kappa}");
+            let squeeze = kappa * (2.0 - kappa);
+            // Below κ = 0.1 the cloudy stretch of the column is narrower than the grid.
+            let tolerance = if kappa > 0.1 { 2e-3 } else { 0.05 };
+            assert!(
+                (domed_top - squeeze * walled_top).abs() < tolerance,
+                "top {domed_top} against {squeeze} · {walled_top} at κ = {kappa}"
+            );
+            if kappa < 0.9 {
+                partial += 1;
+            } else {
+                full += 1;
+            }
+        }
+        // The line crosses both the middle of cloudy patches and their edges.
+        assert!(
+            partial > 20 && full > 20,
+            "{partial} edge and {full} middle columns"
+        );
+    }
+
+    #[test]
+    fn coverage_height_scale_is_clamped_and_never_below_the_coverage() {
+        assert_eq!(coverage_height_scale(0.0, 0.3), 1.0);
+        assert!((coverage_height_scale(1.0, 0.3) - 0.51).abs() < 1e-12);
+        assert!((coverage_height_scale(0.5, 0.3) - 0.755).abs() < 1e-12);
+        assert!((coverage_height_scale(7.0, 0.3) - 0.51).abs() < 1e-12);
+        for kappa in [1e-9, 0.01, 0.2, 0.7, 0.999] {
+            assert!(coverage_height_scale(1.0, kappa) >= kappa);
+        }
+        assert_eq!(coverage_height_scale(-1.0, 0.3), 1.0);
+        assert_eq!(coverage_height_scale(f64::NAN, 0.3), 1.0);
+        assert_eq!(coverage_height_scale(1.0, 1.0), 1.0);
     }
 
     #[test]

@@ -183,7 +183,7 @@ impl VolumetricClouds {
     pub const HIGH: Self = Self {
         quality: CloudQuality::High,
         primary_steps: 192,
-        light_steps: 8,
+        light_steps: 16,
         haze_steps: 24,
         sun_from_shadow_map_m: 10_000.0,
         ..Self::MEDIUM
@@ -192,7 +192,7 @@ impl VolumetricClouds {
     pub const ULTRA: Self = Self {
         quality: CloudQuality::Ultra,
         primary_steps: 384,
-        light_steps: 12,
+        light_steps: 24,
         transmittance_cutoff: 0.002,
         haze_steps: 48,
         light_shaft_resolution_scale: 0.5,

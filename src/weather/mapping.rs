@@ -48,7 +48,7 @@
 //!
 //! A weather-driven layer's kind, base, top, coverage, precipitation darkening, rain and wind are
 //! set on every call. The fog layer's density is set on every call too. The shape fields
-//! (profile, density, weather-map period, skew) are reset to the new kind's defaults only when
+//! (profile, coverage height, density, weather-map period, skew) are reset to the new kind's defaults only when
 //! the mapping changes the kind. Hand edits to the shape therefore last while the weather keeps
 //! the same kind.
 //!
@@ -927,6 +927,7 @@ impl MappedWeather {
             let fresh = CloudLayer::new(kind);
             layer.kind = kind;
             layer.profile = fresh.profile;
+            layer.coverage_height = fresh.coverage_height;
             layer.density = fresh.density;
             layer.weather_map_scale_m = fresh.weather_map_scale_m;
             layer.skew = fresh.skew;

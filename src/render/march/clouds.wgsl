@@ -120,7 +120,7 @@ struct CloudUniforms {
     shadow_map_range_m: vec4<f32>,
 }
 
-// One cloud layer, 192 bytes (an array stride of 192 in the storage buffer). Mirror in Rust
+// One cloud layer, 208 bytes (an array stride of 208 in the storage buffer). Mirror in Rust
 // (`MarchLayer` in reference/render.rs is the f64 source of the same values):
 //
 //     #[derive(ShaderType)]
@@ -137,12 +137,14 @@ struct CloudUniforms {
 //         precipitation: f32,          // offset  36, 0-1 darkening
 //         profile_count: u32,          // offset  40, 0..=8 (0: density 1 everywhere)
 //         far_count: u32,              // offset  44, 0..=2 entries of `far`
-//         weather_offset_m: Vec4,      // offset  48, xy weather offset (m), zw skew (m per m;
+//         coverage_height: f32,        // offset  48, 0-1, how far the local coverage lowers
+//                                      //   the tops (then 12 bytes of padding)
+//         weather_offset_m: Vec4,      // offset  64, xy weather offset (m), zw skew (m per m;
 //                                      //   -skew * wind direction leans tops downwind)
-//         noise_offset_m: Vec4,        // offset  64, xy base-noise offset, zw detail offset (m)
-//         profile: [Vec4; 4],          // offset  80, (h0, d0, h1, d1), (h2, d2, h3, d3), ...
-//         far: [Vec4; 2],              // offset 144, (a_x, a_z, offset, coverage) per far place
-//         weather_map: Vec4,           // offset 176, (origin x, origin y, slice, side): weather
+//         noise_offset_m: Vec4,        // offset  80, xy base-noise offset, zw detail offset (m)
+//         profile: [Vec4; 4],          // offset  96, (h0, d0, h1, d1), (h2, d2, h3, d3), ...
+//         far: [Vec4; 2],              // offset 160, (a_x, a_z, offset, coverage) per far place
+//         weather_map: Vec4,           // offset 192, (origin x, origin y, slice, side): weather
 //                                      //   texel of map texel (0, 0), array slice, texels per
 //                                      //   side; side < 2 when the layer has no map
 //     }
@@ -162,6 +164,8 @@ struct CloudLayerGpu {
     precipitation: f32,
     profile_count: u32,
     far_count: u32,
+    // Rust: `MarchLayer::coverage_height`.
+    coverage_height: f32,
     weather_offset_m: vec4<f32>,
     noise_offset_m: vec4<f32>,
     profile: array<vec4<f32>, 4>,
@@ -450,6 +454,18 @@ fn local_coverage(coverage: f32, weather: f32) -> f32 {
     return max(field, overcast);
 }
 
+// How far the profile is stretched up the layer where the local coverage is `kappa`:
+// 1 - s * (1 - kappa)^2, with s the layer's coverage height clamped to 0-1 (NaN: 0). Rust:
+// `coverage_height_scale`.
+fn coverage_height_scale(coverage_height: f32, kappa: f32) -> f32 {
+    var s = 0.0;
+    if coverage_height > 0.0 {
+        s = min(coverage_height, 1.0);
+    }
+    let gap = 1.0 - kappa;
+    return 1.0 - s * gap * gap;
+}
+
 // Rust: `remap`.
 fn remap(value: f32, old_min: f32, old_max: f32, new_min: f32, new_max: f32) -> f32 {
     return new_min + (value - old_min) / (old_max - old_min) * (new_max - new_min);
@@ -544,12 +560,12 @@ fn layer_density(layer: CloudLayerGpu, horizontal_m: vec2<f32>, altitude_m: f32,
     }
     let height_above_base = altitude_m - layer.base_m;
     let height_fraction = height_above_base / (layer.top_m - layer.base_m);
-    let profile = profile_density(layer, height_fraction);
-    if !(profile > 0.0) {
-        return 0.0;
-    }
     let kappa = weather_coverage(layer, horizontal_m, height_above_base);
     if !(kappa > 0.0) {
+        return 0.0;
+    }
+    let profile = profile_density(layer, height_fraction / coverage_height_scale(layer.coverage_height, kappa));
+    if !(profile > 0.0) {
         return 0.0;
     }
     let strength = saturate(layer.shape_strength);

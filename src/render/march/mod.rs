@@ -398,6 +398,7 @@ fn march_layer(
         detail_erosion: f64::from(settings.detail_erosion),
         shape_strength: f64::from(layer.shape_noise.clamp(0.0, 1.0)),
         precipitation: f64::from(layer.precipitation.clamp(0.0, 1.0)),
+        coverage_height: f64::from(layer.coverage_height),
         ..default()
     };
     // Noise axes are world +X (east) and +Z (south) at the camera; drift is [east, north] and
@@ -446,6 +447,8 @@ fn rain_shaft(layer: &CloudLayer, cloud: &MarchLayer) -> Option<MarchLayer> {
         detail_erosion: 0.0,
         precipitation: 1.0,
         skew: [0.0; 2],
+        // The rain falls from the whole cloud base, however high the cloud above it reaches.
+        coverage_height: 0.0,
         ..cloud.clone()
     };
     rain.set_profile(&[]);
@@ -571,7 +574,7 @@ impl GpuCloudUniforms {
     }
 }
 
-/// One layer, laid out as `CloudLayerGpu` in `clouds.wgsl` (192 bytes).
+/// One layer, laid out as `CloudLayerGpu` in `clouds.wgsl` (208 bytes).
 #[derive(ShaderType, Clone, Debug, Default)]
 pub struct GpuCloudLayer {
     base_m: f32,
@@ -586,6 +589,7 @@ pub struct GpuCloudLayer {
     precipitation: f32,
     profile_count: u32,
     far_count: u32,
+    coverage_height: f32,
     weather_offset_m: Vec4,
     noise_offset_m: Vec4,
     profile: [Vec4; 4],
@@ -627,6 +631,7 @@ impl From<&MarchLayer> for GpuCloudLayer {
             precipitation: layer.precipitation as f32,
             profile_count: layer.profile_points,
             far_count: layer.far_count.min(MAX_FAR_COVERAGES as u32),
+            coverage_height: layer.coverage_height as f32,
             weather_offset_m: Vec4::new(
                 layer.weather_offset_m[0] as f32,
                 layer.weather_offset_m[1] as f32,
@@ -1396,7 +1401,7 @@ mod tests {
     #[test]
     fn gpu_structs_match_the_shader_layout() {
         assert_eq!(GpuCloudUniforms::min_size().get(), 224);
-        assert_eq!(GpuCloudLayer::min_size().get(), 192);
+        assert_eq!(GpuCloudLayer::min_size().get(), 208);
     }
 
     #[test]
