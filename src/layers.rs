@@ -18,7 +18,9 @@
 //!   middle … fades to zero density again at the top". It then becomes a user-drawn curve, sampled
 //!   into an array on the CPU "when the curve is modified" and passed to the shader
 //!   ([`DensityProfile::bake`] does that here). The curve is data, not a formula, so it can be
-//!   edited.
+//!   edited. [`CloudLayer::coverage_height`] lets the weather's local coverage set how far up
+//!   the layer each cloud reaches, so heaps come down toward the edge of their cloudy patch
+//!   instead of standing as walls there.
 //! - **How it moves**: [`CloudLayer::wind_m_s`] scrolls the layer's noise and weather map.
 //!   [`CloudLayer::skew`] leans the clouds downwind with height. This is seed 002's "Wind and
 //!   Skew": skew "only displaces the weather map texture and the amount displaced increases with
@@ -36,17 +38,17 @@
 //!
 //! [`CloudLayer::new`] starts a layer from its [`CloudKind`]'s [`KindDefaults`]:
 //!
-//! | kind | base – top, m above ground | coverage | density, 1/m | weather-map period, m | skew |
-//! |---|---|---|---|---|---|
-//! | Cumulus | 1 000 – 2 200 | 0.4 | 0.07 | 12 000 | 0.1 |
-//! | Stratocumulus | 800 – 1 400 | 0.7 | 0.05 | 20 000 | 0.05 |
-//! | Stratus | 150 – 450 | 0.9 | 0.04 | 40 000 | 0 |
-//! | Altocumulus | 3 000 – 3 500 | 0.5 | 0.03 | 15 000 | 0.05 |
-//! | Altostratus | 3 000 – 5 000 | 0.9 | 0.015 | 40 000 | 0 |
-//! | Cirrus | 8 000 – 9 000 | 0.4 | 0.000 8 | 50 000 | 0.5 |
-//! | Cirrostratus | 7 500 – 8 500 | 0.9 | 0.000 4 | 80 000 | 0.1 |
-//! | Cirrocumulus | 7 000 – 7 400 | 0.4 | 0.001 6 | 15 000 | 0.1 |
-//! | Cumulonimbus | 1 000 – 10 000 | 0.3 | 0.1 | 30 000 | 0.2 |
+//! | kind | base – top, m above ground | coverage | density, 1/m | weather-map period, m | skew | coverage height |
+//! |---|---|---|---|---|---|---|
+//! | Cumulus | 1 000 – 2 200 | 0.4 | 0.07 | 12 000 | 0.1 | 1 |
+//! | Stratocumulus | 800 – 1 400 | 0.7 | 0.05 | 20 000 | 0.05 | 0.5 |
+//! | Stratus | 150 – 450 | 0.9 | 0.04 | 40 000 | 0 | 0 |
+//! | Altocumulus | 3 000 – 3 500 | 0.5 | 0.03 | 15 000 | 0.05 | 0.5 |
+//! | Altostratus | 3 000 – 5 000 | 0.9 | 0.015 | 40 000 | 0 | 0 |
+//! | Cirrus | 8 000 – 9 000 | 0.4 | 0.000 8 | 50 000 | 0.5 | 0 |
+//! | Cirrostratus | 7 500 – 8 500 | 0.9 | 0.000 4 | 80 000 | 0.1 | 0 |
+//! | Cirrocumulus | 7 000 – 7 400 | 0.4 | 0.001 6 | 15 000 | 0.1 | 0.5 |
+//! | Cumulonimbus | 1 000 – 10 000 | 0.3 | 0.1 | 30 000 | 0.2 | 0.5 |
 //!
 //! - **Altitudes** are typical mid-latitude heights inside the WMO étages (International Cloud
 //!   Atlas, WMO-No. 407: low étage from the surface to 2 km, middle 2–7 km, high 5–13 km in
@@ -61,8 +63,8 @@
 //!   0.1 g/m³ at 10 µm, cumulonimbus 1 g/m³ at 15 µm. The cirrus family uses ice water contents
 //!   of 0.01–0.03 g/m³ with crystals of 30–40 µm. A 1 km cumulus is therefore opaque (optical depth
 //!   ≈ 70) and a 1 km cirrus translucent (≈ 0.8).
-//! - **Coverage, weather-map period and skew** are starting points chosen for the look, not
-//!   measurements. The period is set so that the weather noise holds several clouds of the
+//! - **Coverage, weather-map period, skew and coverage height** are starting points chosen for
+//!   the look, not measurements. The period is set so that the weather noise holds several clouds of the
 //!   kind's typical size (cumulus cells about 1 km, stratiform sheets tens of km). The skew makes
 //!   cirrus fall streaks and cumulonimbus anvils trail downwind.
 //!
@@ -138,8 +140,8 @@ impl CloudKind {
         matches!(self, Self::Cirrus | Self::Cirrostratus | Self::Cirrocumulus)
     }
 
-    /// The kind's default altitudes, coverage, density, weather-map period and skew (the table in
-    /// the [module docs](self), with its sources).
+    /// The kind's default altitudes, coverage, density, weather-map period, skew and coverage
+    /// height (the table in the [module docs](self), with its sources).
     #[must_use]
     pub const fn defaults(self) -> KindDefaults {
         let (base_m, top_m, coverage, density, weather_map_scale_m, skew) = match self {

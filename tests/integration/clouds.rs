@@ -848,12 +848,12 @@ fn temporal_accumulation_converges_and_follows_the_camera() {
         relative_rmse(&mean_l, &truth_l),
     );
     assert!(still < 0.5 * single, "still {still} vs one frame {single}");
-    // Measured: one frame 18.2 %, accumulated 3.7 %, turning 11.5 %. The turning error is
-    // mostly the reprojection's resampling (11.9 % before dense steps were marched in parts,
-    // when one frame was 21 % and this bound was 0.6): the bound checks that accumulating while
-    // turning still removes a third of one frame's error, not the noise level of the frame.
+    // Measured: one frame 20.8 %, accumulated 4.2 %, turning 11.9 % (a ratio of 0.57). The
+    // turning error is mostly the reprojection's resampling, so the ratio depends on how noisy
+    // one frame is: with the scene of the previous version (before coverage height) one frame
+    // was 18.2 % and turning 11.5 %, a ratio of 0.63, and this bound was 0.7 for a while.
     assert!(
-        moving < 0.7 * single,
+        moving < 0.6 * single,
         "turning {moving} vs one frame {single}"
     );
     assert!(
