@@ -64,9 +64,11 @@
 //!   of 0.01–0.03 g/m³ with crystals of 30–40 µm. A 1 km cumulus is therefore opaque (optical depth
 //!   ≈ 70) and a 1 km cirrus translucent (≈ 0.8).
 //! - **Coverage, weather-map period, skew and coverage height** are starting points chosen for
-//!   the look, not measurements. The period is set so that the weather noise holds several clouds of the
-//!   kind's typical size (cumulus cells about 1 km, stratiform sheets tens of km). The skew makes
-//!   cirrus fall streaks and cumulonimbus anvils trail downwind.
+//!   the look, not measurements. The period is set so that the weather noise holds several
+//!   clouds of the kind's typical size (cumulus cells about 1 km, stratiform sheets tens of km).
+//!   The skew makes cirrus fall streaks and cumulonimbus anvils trail downwind. Heaps take a
+//!   coverage height, so they come down toward the edges of their cloudy patches; sheets keep a
+//!   level top.
 //!
 //! Each kind's vertical profile is in [`DensityProfile::for_kind`].
 
@@ -198,7 +200,8 @@ pub struct KindDefaults {
     pub weather_map_scale_m: f32,
     /// Horizontal shift per metre of height, downwind (dimensionless).
     pub skew: f32,
-    /// How much the local coverage sets the clouds' height, 0–1 ([`CloudLayer::coverage_height`]).
+    /// How much the local coverage sets the clouds' height, 0–1
+    /// ([`CloudLayer::coverage_height`]).
     pub coverage_height: f32,
 }
 
@@ -583,8 +586,7 @@ pub struct CloudLayer {
     /// falling to 0 at its edge), the profile is stretched over `1 − s · (1 − κ)²` of the
     /// layer's thickness. At 1 a cloud's top comes down toward its edges, so heaps round into
     /// domes; at 0 every cloud reaches the layer's top and stands as a wall where the coverage
-    /// ends.
-    /// Default: the kind's (cumulus 1; stratocumulus, altocumulus, cirrocumulus and
+    /// ends. Default: the kind's (cumulus 1; stratocumulus, altocumulus, cirrocumulus and
     /// cumulonimbus 0.5; sheets and cirrus 0).
     pub coverage_height: f32,
     /// Period of the layer's 2D weather noise, metres: the horizontal size of the pattern of

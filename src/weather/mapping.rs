@@ -48,9 +48,9 @@
 //!
 //! A weather-driven layer's kind, base, top, coverage, precipitation darkening, rain and wind are
 //! set on every call. The fog layer's density is set on every call too. The shape fields
-//! (profile, coverage height, density, weather-map period, skew) are reset to the new kind's defaults only when
-//! the mapping changes the kind. Hand edits to the shape therefore last while the weather keeps
-//! the same kind.
+//! (profile, coverage height, density, weather-map period, skew) are reset to the new kind's
+//! defaults only when the mapping changes the kind. Hand edits to the shape therefore last while
+//! the weather keeps the same kind.
 //!
 //! **Missing values are never zeros.** When a forecast input has no value (absent from the file,
 //! in a long gap, or not finite), everything it drives keeps the layer's previous value. A
