@@ -25,15 +25,17 @@
 //!   MEDIUM yellow, HIGH green, ULTRA blue; grey lines at every decade.
 //! - `images/SCENE_PRESET.png`: each render beside the reference, and a third panel with the
 //!   difference of their linear luminance, `|Δ| / mean(reference)`, white at 20 % and above.
-//!
-//! `--scene NAME` measures only that scene (and skips the effects); the log then also says
-//! which share of the squared error the worst 1 % of pixels carry. `--reference-steps N` sets
-//! the reference's primary steps (default 512); with any other count the 512-step reference is
-//! measured against it as one more row, `REFERENCE_512`: how far the default is converged.
 //! - `effects.csv`: `effect,scene,ms_with,ms_without,ratio`, the median whole-frame time with
 //!   and without each optional effect (the cloud shadow map at 256², haze, light shafts, rain,
 //!   fog, temporal accumulation, the weather map; see `measure_effects`), on the cumulus scene
 //!   with `MEDIUM`.
+//!
+//! The log gives each preset's time and error, and which share of the squared error the worst
+//! 1 % of pixels carry (near 1 when a few pixels hold the error, near 0.01 when it is spread
+//! evenly). `--scene NAME` measures only that scene and writes only its images. `--reference-steps
+//! N` sets the reference's primary steps (default 512, at most 1024); with any other count the
+//! 512-step reference is measured against it as one more row, `REFERENCE_512`: how far the
+//! default has converged.
 //!
 //! `--error-budget` instead prints, for the cumulus and sunset scenes, the error of `HIGH` with one
 //! knob changed at a time, on the CPU reference renderer (48×27, small noise, no jitter) against
@@ -53,7 +55,7 @@ use std::{
 use bevy::prelude::*;
 use bevy_cloudscape::prelude::*;
 use bevy_cloudscape::{
-    reference::render::{CloudTextures, march_clouds},
+    reference::render::{CloudTextures, MAX_PRIMARY_STEPS, march_clouds},
     render::march::{CloudSun, march_inputs},
 };
 use common::scenes::{
@@ -102,7 +104,14 @@ fn parse_args() -> Result<Args, String> {
             "--width" => args.size.x = number("--width")?,
             "--height" => args.size.y = number("--height")?,
             "--frames" => args.frames = number("--frames")?,
-            "--reference-steps" => args.reference_steps = number("--reference-steps")?,
+            "--reference-steps" => {
+                args.reference_steps = number("--reference-steps")?;
+                if args.reference_steps > MAX_PRIMARY_STEPS {
+                    return Err(format!(
+                        "--reference-steps: the march takes at most {MAX_PRIMARY_STEPS} steps"
+                    ));
+                }
+            }
             "--no-jitter" => args.no_jitter = true,
             "--effects-only" => args.effects_only = true,
             "--error-budget" => args.error_budget = true,
