@@ -15,8 +15,8 @@ use bevy::{
 use bevy_cloudscape::{
     prelude::*,
     reference::{
-        composite::{LowResImage, upsample},
-        haze::{HazeSun, ShaftFactors, composite, march_haze, shaft_factors, shaft_ray_end_m},
+        composite::{LowResImage, ray_end_m, upsample},
+        haze::{HazeSun, ShaftFactors, composite, march_haze, shaft_factors},
         noise::NoiseRecipe,
         render::{CloudTextures, MarchResult, march_clouds, ray_start_jitter},
         shadow::ShadowMapImage,
@@ -372,7 +372,7 @@ impl CloudRig {
         };
         // Where a sky ray ends for the shaft factors' upsample (the ground, or the sky).
         let ray_end = |direction: [f64; 3]| {
-            shaft_ray_end_m(
+            ray_end_m(
                 &view.settings,
                 view.settings.camera_altitude_m,
                 view.settings.camera_up,

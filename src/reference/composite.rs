@@ -27,6 +27,8 @@
 //!
 //! [`resolution_scale`]: crate::render::VolumetricClouds::resolution_scale
 
+use super::render::{MarchSettings, dot, ground_distance};
+
 /// The distance a ray that meets no geometry (the sky) is stopped at, metres; the GPU's
 /// largest comfortable f32. WGSL twin: `FAR_AWAY`.
 pub const FAR_AWAY: f64 = 3.0e38;
@@ -46,6 +48,25 @@ pub fn stored_distance(distance_m: f64) -> f64 {
     } else {
         distance_m.clamp(0.0, FAR_AWAY)
     }
+}
+
+/// Where a view ray ends for the depth-aware upsample and the temporal accumulation, metres:
+/// the scene at `t_max` (infinity: none) or the ground sphere, whichever is nearer, as
+/// [`stored_distance`]. The camera is at `camera_altitude_m` with local vertical `up`;
+/// `direction` is the unit view ray. Rays below the horizon of a scene with no ground geometry
+/// end at the planet, not in the sky, so the sky's texels do not bleed below the horizon. The
+/// march stores it for each reduced-resolution texel, and each full-resolution pixel computes
+/// its own. WGSL twin: `ray_end`.
+pub fn ray_end_m(
+    settings: &MarchSettings,
+    camera_altitude_m: f64,
+    up: [f64; 3],
+    direction: [f64; 3],
+    t_max: f64,
+) -> f64 {
+    let mu = dot(direction, up).clamp(-1.0, 1.0);
+    let ground = ground_distance(camera_altitude_m, mu, settings.planet_radius_m);
+    stored_distance(t_max.min(ground))
 }
 
 /// How much a texel whose ray stopped at `tap_m` counts for a pixel whose ray stops at
@@ -300,6 +321,45 @@ mod tests {
         assert_eq!(
             temporal_resolve([0.3], [0.0], [1.0], Some([0.9]), f64::NAN),
             [0.3]
+        );
+    }
+
+    #[test]
+    fn rays_end_at_the_scene_or_the_ground_whichever_is_nearer() {
+        let settings = MarchSettings::default();
+        let radius = settings.planet_radius_m;
+        let up = [0.0, 1.0, 0.0];
+        let h = 2.0;
+        // Level and up: the sky (no ground ahead), or the scene where there is one.
+        assert_eq!(
+            ray_end_m(&settings, h, up, [0.0, 0.0, -1.0], f64::INFINITY),
+            FAR_AWAY
+        );
+        assert_eq!(ray_end_m(&settings, h, up, [0.0, 0.6, -0.8], 300.0), 300.0);
+        // 1° down from 2 m: the ground sphere at about h / sin(1°) = 115 m (the curvature adds
+        // well under a metre).
+        let angle = 1f64.to_radians();
+        let down = [0.0, -angle.sin(), -angle.cos()];
+        let ground = ray_end_m(&settings, h, up, down, f64::INFINITY);
+        assert!((ground - h / angle.sin()).abs() < 0.5, "{ground}");
+        // A scene in front of the ground ends the ray there; one behind it does not.
+        assert_eq!(ray_end_m(&settings, h, up, down, 50.0), 50.0);
+        assert_eq!(ray_end_m(&settings, h, up, down, 1_000.0), ground);
+        // Just below the horizon, which dips θh = sqrt(2h / R) = 0.045° from 2 m: at θ below
+        // level the ground is R (θ − sqrt(θ² − θh²)) away (small angles), 1.9 km at θ = 1.5 θh.
+        let horizon = (2.0 * h / radius).sqrt();
+        let dip = 1.5 * horizon;
+        let grazing = ray_end_m(
+            &settings,
+            h,
+            up,
+            [0.0, -dip.sin(), -dip.cos()],
+            f64::INFINITY,
+        );
+        let expected = radius * (dip - (dip * dip - horizon * horizon).sqrt());
+        assert!(
+            (grazing / expected - 1.0).abs() < 1e-3,
+            "{grazing} {expected}"
         );
     }
 

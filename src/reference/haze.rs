@@ -357,24 +357,6 @@ pub fn shaft_factors(
     }
 }
 
-/// Where a view ray ends for the upsample of the shaft factors, metres: the scene at `t_max` or
-/// the ground sphere, whichever is nearer, as [`stored_distance`] (rays below the horizon of a
-/// scene with no ground geometry end at the planet, not in the sky). WGSL twin:
-/// `shaft_ray_end`.
-///
-/// [`stored_distance`]: super::composite::stored_distance
-pub fn shaft_ray_end_m(
-    settings: &MarchSettings,
-    camera_altitude_m: f64,
-    up: [f64; 3],
-    direction: [f64; 3],
-    t_max: f64,
-) -> f64 {
-    let mu = dot(direction, up).clamp(-1.0, 1.0);
-    let ground = ground_distance(camera_altitude_m, mu, settings.planet_radius_m);
-    super::composite::stored_distance(t_max.min(ground))
-}
-
 /// Marches the haze along one view ray (see the module docs). The camera is at
 /// `camera_altitude_m` with local vertical `up`; `direction` is the unit view ray, `t_max` the
 /// distance to the scene (infinity for the sky), `split_m` the clouds' distance (infinity

@@ -260,6 +260,49 @@ fn near_box_unchanged_far_box_covered(resolution_scale: f32) {
         far.len(),
         "the far box is behind the overcast layer and must be covered"
     );
+    // Below the horizon the rays end at the planet's ground, 5 km away, long before the layer:
+    // the clouds must not change those pixels. At a reduced resolution the rows just below the
+    // horizon read texels whose rays went into the cloudy sky above it; the upsample must weigh
+    // them by where the rays end (the ground sphere), not by the depth prepass, which holds no
+    // ground here.
+    let (camera, camera_transform) = {
+        let mut query = app
+            .world()
+            .query_filtered::<(&Camera, &GlobalTransform), With<VolumetricClouds>>();
+        let (camera, transform) = query.single(app.world()).unwrap();
+        (camera.clone(), *transform)
+    };
+    let below_horizon: Vec<(u32, u32)> = (0..size.y)
+        .flat_map(|y| (0..size.x).map(move |x| (x, y)))
+        .filter(|&(x, y)| {
+            let ray = camera
+                .viewport_to_world(&camera_transform, Vec2::new(x as f32, y as f32) + 0.5)
+                .unwrap();
+            // The horizon dips 0.05° below level from 2 m up; 0.1° keeps clear of it.
+            ray.direction.y < -0.1f32.to_radians().sin()
+                && (-1..=1).all(|dy: i32| {
+                    (-1..=1).all(|dx: i32| {
+                        let (nx, ny) = (x as i32 + dx, y as i32 + dy);
+                        nx < 0
+                            || ny < 0
+                            || nx >= size.x as i32
+                            || ny >= size.y as i32
+                            || !red(nx as u32, ny as u32)
+                    })
+                })
+        })
+        .collect();
+    assert!(below_horizon.len() >= 100, "the ground is in view");
+    let ground_max = below_horizon
+        .iter()
+        .map(|&(x, y)| changed(x, y))
+        .max()
+        .unwrap();
+    assert!(
+        ground_max <= 1,
+        "the ground below the horizon lies in front of the clouds and must not change \
+         ({ground_max} / 255)"
+    );
 }
 
 #[test]

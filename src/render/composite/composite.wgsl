@@ -13,6 +13,62 @@ const FAR_AWAY: f32 = 3.0e38;
 const DEPTH_TOLERANCE: f32 = 0.05;
 // Below this total weight no texel saw the pixel's surface. Rust: `MIN_WEIGHT_SUM`.
 const MIN_WEIGHT_SUM: f32 = 1e-4;
+// A ray that misses a sphere. Rust: `None` (`intersect_altitude_sphere` there returns NaN).
+const NO_HIT: f32 = -1.0;
+
+// Where the ground sphere is for a view: the camera's local vertical (xyz) and altitude above
+// the ground (w, m), and the planet's radius (m). Mirror in Rust: `GpuViewGround` (32 bytes).
+struct ViewGround {
+    camera_up_altitude: vec4<f32>,
+    planet_radius_m: f32,
+}
+
+// ---------------------------------------------------------------------------------------------
+// Geometry on the curved planet (the march's shells, the ground the rays end at)
+// ---------------------------------------------------------------------------------------------
+
+// Distances (near, far) along a ray to the sphere at `sphere_altitude` above the ground, for a
+// camera at altitude `h` with mu = dot(direction, up); (NO_HIT, NO_HIT) on a miss. With
+// A = R + h: t^2 + 2bt + c = 0, b = A mu, c = (h - alt)(2R + h + alt); discriminant
+// (alt - h)(2R + alt + h) + b^2; stable roots q = -(b + sign(b) sqrt(disc)) and c / q.
+// Rust: `intersect_altitude_sphere`.
+fn intersect_altitude_sphere(h: f32, mu: f32, planet_radius: f32, sphere_altitude: f32) -> vec2<f32> {
+    let b = (planet_radius + h) * mu;
+    let c = (h - sphere_altitude) * (2.0 * planet_radius + h + sphere_altitude);
+    let discriminant = (sphere_altitude - h) * (2.0 * planet_radius + sphere_altitude + h) + b * b;
+    if !(discriminant >= 0.0) {
+        return vec2<f32>(NO_HIT);
+    }
+    let q = -(b + select(-1.0, 1.0, b >= 0.0) * sqrt(discriminant));
+    if q == 0.0 {
+        return vec2<f32>(0.0);
+    }
+    let r = c / q;
+    return vec2<f32>(min(q, r), max(q, r));
+}
+
+// Distance to the ground sphere ahead, FAR_AWAY if the ray does not go into the ground (tangent
+// rays graze; a camera below the ground sphere is not stopped). Rust: `ground_distance`.
+fn ground_distance(h: f32, mu: f32, planet_radius: f32) -> f32 {
+    let t = intersect_altitude_sphere(h, mu, planet_radius, 0.0);
+    return select(FAR_AWAY, t.x, t.x >= 0.0 && t.y > t.x);
+}
+
+// Where the view ray along `direction` from a camera at altitude `h` with local vertical `up`
+// ends: the scene at `t_max` (FAR_AWAY: none) or the ground sphere, whichever is nearer. The
+// upsample and the temporal accumulation weigh texels by it, so the planet's ground, which
+// the depth prepass does not hold, is a surface apart from the sky above the horizon.
+// Rust: `ray_end_m`.
+fn ray_end(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, planet_radius: f32) -> f32 {
+    let mu = clamp(dot(direction, up), -1.0, 1.0);
+    return min(t_max, ground_distance(h, mu, planet_radius));
+}
+
+// `ray_end` for a view whose ground is `ground`.
+fn view_ray_end(ground: ViewGround, direction: vec3<f32>, t_max: f32) -> f32 {
+    return ray_end(ground.camera_up_altitude.w, ground.camera_up_altitude.xyz, direction, t_max, ground.planet_radius_m);
+}
+
 
 // How much a texel whose ray stopped at `tap_m` counts for a pixel whose ray stops at
 // `pixel_m`, before the bilinear weight. Rust: `depth_weight`.

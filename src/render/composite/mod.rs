@@ -161,6 +161,7 @@ fn upsample_layout(label: &'static str, multisampled: bool) -> BindGroupLayoutDe
                 depth_binding(multisampled),
                 texture_2d(TextureSampleType::Float { filterable: false }),
                 texture_2d(TextureSampleType::Float { filterable: false }),
+                uniform_buffer::<GpuViewGround>(false),
             ),
         ),
     )
@@ -250,6 +251,18 @@ pub struct GpuTemporalUniforms {
     _pad1: u32,
 }
 
+/// Where the ground sphere is for a view, laid out as `ViewGround` in `composite.wgsl` (32
+/// bytes): the upsample and the temporal accumulation end each pixel's ray at the scene or the
+/// ground sphere, whichever is nearer ([`crate::reference::composite::ray_end_m`]), as the
+/// march does for the texels they read.
+#[derive(ShaderType, Clone, Debug, Default)]
+pub struct GpuViewGround {
+    /// The camera's local vertical (xyz, unit) and its altitude above the ground (w, m).
+    pub camera_up_altitude: Vec4,
+    /// The planet's radius, m.
+    pub planet_radius_m: f32,
+}
+
 /// Where a view's camera was and how it projected, for the next frame's reprojection.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ViewPose {
@@ -304,6 +317,7 @@ fn temporal_layout(label: &'static str, multisampled: bool) -> BindGroupLayoutDe
                 texture_2d(TextureSampleType::Float { filterable: true }),
                 sampler(SamplerBindingType::Filtering),
                 uniform_buffer::<GpuTemporalUniforms>(false),
+                uniform_buffer::<GpuViewGround>(false),
             ),
         ),
     )
@@ -382,6 +396,8 @@ pub struct CloudLowResTargets {
     pub colour: CachedTexture,
     /// Where each ray was stopped, metres ([`LOW_RES_DISTANCE_FORMAT`]).
     pub distance: CachedTexture,
+    /// Where the view's ground sphere is, for the full-resolution pixels' ray ends.
+    pub ground: UniformBuffer<GpuViewGround>,
 }
 
 /// The light-shaft factors of a view with light shafts ([`SHAFT_FORMAT`]), at
@@ -481,7 +497,24 @@ pub(crate) fn prepare_composite_targets(
             let size = low_res_size(full, view.resolution_scale);
             let colour = texture("cloud_low_res_colour", LOW_RES_COLOUR_FORMAT, size);
             let distance = texture("cloud_low_res_distance", LOW_RES_DISTANCE_FORMAT, size);
-            entity_commands.insert(CloudLowResTargets { colour, distance });
+            let settings = &view.settings;
+            let up = settings.camera_up.map(|c| c as f32);
+            let mut ground = UniformBuffer::from(GpuViewGround {
+                camera_up_altitude: Vec4::new(
+                    up[0],
+                    up[1],
+                    up[2],
+                    settings.camera_altitude_m as f32,
+                ),
+                planet_radius_m: settings.planet_radius_m as f32,
+            });
+            ground.set_label(Some("cloud_view_ground"));
+            ground.write_buffer(&device, &queue);
+            entity_commands.insert(CloudLowResTargets {
+                colour,
+                distance,
+                ground,
+            });
         } else {
             entity_commands.remove::<CloudLowResTargets>();
         }

@@ -8,8 +8,8 @@
 #import bevy_cloudscape::view_depth::{view, depth_prepass}
 #import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
 #import bevy_cloudscape::composite::{
-    FAR_AWAY, footprint, footprint_texel, upsample_weights, uv_to_ndc, view_direction,
-    surface_distance,
+    FAR_AWAY, ViewGround, footprint, footprint_texel, upsample_weights, uv_to_ndc,
+    view_direction, surface_distance, view_ray_end,
 }
 
 // Mirror in Rust: `GpuTemporalUniforms` (80 bytes).
@@ -30,6 +30,7 @@ struct TemporalUniforms {
 @group(0) @binding(4) var history: texture_2d<f32>;
 @group(0) @binding(5) var history_sampler: sampler;
 @group(0) @binding(6) var<uniform> temporal: TemporalUniforms;
+@group(0) @binding(7) var<uniform> ground: ViewGround;
 
 // Rust: `reproject`.
 fn reproject(direction: vec3<f32>, distance: f32) -> vec3<f32> {
@@ -87,8 +88,8 @@ fn temporal_resolve(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
     // This pixel's ray and where it stops.
     let ndc = uv_to_ndc(in.uv);
     let depth = textureLoad(depth_prepass, vec2<i32>(in.position.xy), 0);
-    let distance = surface_distance(view.view_from_clip, ndc, depth);
     let direction = view_direction(view.view_from_clip, view.world_from_view, ndc);
+    let distance = view_ray_end(ground, direction, surface_distance(view.view_from_clip, ndc, depth));
 
     // The new frame at this pixel, upsampled; where its content lies, from the tap that counts
     // most.

@@ -1,8 +1,9 @@
 // Depth-aware upsample of a reduced-resolution cloud march (march.wgsl with LOW_RES): each
 // full-resolution pixel blends the four nearest low-resolution (L, T) texels with bilinear
-// weights times `depth_weight` (`composite.wgsl`), so a pixel of near geometry takes only texels
-// that were stopped at similar geometry, and cloud in front of the sky does not bleed over a
-// hill's edge. The output is blended as `scene * T + L`, like the full-resolution march.
+// weights times `depth_weight` (`composite.wgsl`) of where the rays end (`view_ray_end`: the
+// scene or the ground sphere), so a pixel of near geometry takes only texels that were stopped
+// at similar geometry, cloud in front of the sky does not bleed over a hill's edge, and the sky
+// does not bleed below the horizon of a scene with no ground of its own. The output is blended as `scene * T + L`, like the full-resolution march.
 // A second entry, `copy`, composites a full-resolution image as it is (the temporal history,
 // `temporal.wgsl`).
 // CPU twin: `upsample` in `src/reference/composite.rs`. Rust side:
@@ -11,16 +12,20 @@
 #import bevy_cloudscape::view_depth::{view, depth_prepass}
 #import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
 #import bevy_cloudscape::composite::{
-    footprint, footprint_texel, upsample_weights, uv_to_ndc, surface_distance,
+    ViewGround, footprint, footprint_texel, upsample_weights, uv_to_ndc, surface_distance,
+    view_direction, view_ray_end,
 }
 
 @group(0) @binding(2) var low_colour: texture_2d<f32>;
 @group(0) @binding(3) var low_distance: texture_2d<f32>;
+@group(0) @binding(4) var<uniform> ground: ViewGround;
 
 @fragment
 fn fragment(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
     let depth = textureLoad(depth_prepass, vec2<i32>(in.position.xy), 0);
-    let distance = surface_distance(view.view_from_clip, uv_to_ndc(in.uv), depth);
+    let ndc = uv_to_ndc(in.uv);
+    let direction = view_direction(view.view_from_clip, view.world_from_view, ndc);
+    let distance = view_ray_end(ground, direction, surface_distance(view.view_from_clip, ndc, depth));
     let size = vec2<i32>(textureDimensions(low_colour));
     let f = footprint(in.uv, size);
     var taps = vec4<f32>(0.0);

@@ -7,9 +7,10 @@
 // Rust side: `src/render/haze/mod.rs`.
 
 #import bevy_cloudscape::clouds::{
-    clouds, intersect_altitude_sphere, ground_distance, altitude_along_ray, henyey_greenstein,
-    mean_step_transmittance, shadow_map_uv, shadow_map_covers, sample_shadow_map,
+    clouds, altitude_along_ray, henyey_greenstein, mean_step_transmittance, shadow_map_uv,
+    shadow_map_covers, sample_shadow_map,
 }
+#import bevy_cloudscape::composite::{intersect_altitude_sphere, ground_distance}
 
 // 36 bytes. Mirror in Rust: `GpuHazeUniforms` (`HazeSettings` is the f64 source).
 struct HazeUniforms {
@@ -55,13 +56,6 @@ fn haze_span(h: f32, mu: f32, t_max: f32) -> vec2<f32> {
         return vec2<f32>(0.0);
     }
     return vec2<f32>(max(roots.x, 0.0), min(roots.y, min(t_max, ground_distance(h, mu, radius))));
-}
-
-// Where a view ray ends for the upsample of the shaft factors: the scene or the ground sphere,
-// whichever is nearer. Rust: `shaft_ray_end_m`.
-fn shaft_ray_end(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32) -> f32 {
-    let mu = clamp(dot(direction, up), -1.0, 1.0);
-    return min(t_max, ground_distance(h, mu, clouds.planet_radius_m));
 }
 
 // Whether there is haze to march. Rust: `HazeSettings::is_active`.

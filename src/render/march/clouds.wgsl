@@ -2,7 +2,9 @@
 
 // f32 has no infinity literal: "no distance" / "the sky" is FAR_AWAY (Rust: f64::INFINITY).
 // Pass it, or any larger value, as `t_max` for sky pixels.
-#import bevy_cloudscape::composite::FAR_AWAY
+#import bevy_cloudscape::composite::{
+    FAR_AWAY, NO_HIT, intersect_altitude_sphere, ground_distance,
+}
 
 // The cloud ray-march: shell geometry on a curved planet, seed 002's density model, the light
 // march toward the sun and Hillaire 2016's energy-conserving integration. A shader library: the
@@ -225,7 +227,6 @@ const FBM_WEIGHTS: vec3<f32> = vec3<f32>(0.625, 0.25, 0.125);
 const WEATHER_COVERAGE_RANGE: vec2<f32> = vec2<f32>(0.4, 0.95);
 const COVERAGE_EDGE_WIDTH: f32 = 0.25;
 const OVERCAST_COVERAGE: f32 = 0.9;
-const NO_HIT: f32 = -1.0;
 // Below this optical thickness `mean_step_transmittance` uses its series (Rust: SERIES_LIMIT,
 // 1e-5 there because f64 has expm1).
 const SERIES_LIMIT: f32 = 0.1;
@@ -242,39 +243,12 @@ fn saturate(x: f32) -> f32 {
 // Geometry
 // ---------------------------------------------------------------------------------------------
 
-// Distances (near, far) along a ray to the sphere at `sphere_altitude` above the ground, for a
-// camera at altitude `h` with mu = dot(direction, up); (NO_HIT, NO_HIT) on a miss. With
-// A = R + h: t^2 + 2bt + c = 0, b = A mu, c = (h - alt)(2R + h + alt); discriminant
-// (alt - h)(2R + alt + h) + b^2; stable roots q = -(b + sign(b) sqrt(disc)) and c / q.
-// Rust: `intersect_altitude_sphere`.
-fn intersect_altitude_sphere(h: f32, mu: f32, planet_radius: f32, sphere_altitude: f32) -> vec2<f32> {
-    let b = (planet_radius + h) * mu;
-    let c = (h - sphere_altitude) * (2.0 * planet_radius + h + sphere_altitude);
-    let discriminant = (sphere_altitude - h) * (2.0 * planet_radius + sphere_altitude + h) + b * b;
-    if !(discriminant >= 0.0) {
-        return vec2<f32>(NO_HIT);
-    }
-    let q = -(b + select(-1.0, 1.0, b >= 0.0) * sqrt(discriminant));
-    if q == 0.0 {
-        return vec2<f32>(0.0);
-    }
-    let r = c / q;
-    return vec2<f32>(min(q, r), max(q, r));
-}
-
 // Altitude at distance t along the ray: h + s / (A + sqrt(A^2 + s)), A = R + h,
 // s = 2 A mu t + t^2, without subtracting two planet radii. Rust: `altitude_along_ray`.
 fn altitude_along_ray(h: f32, mu: f32, t: f32, planet_radius: f32) -> f32 {
     let a = planet_radius + h;
     let s = 2.0 * a * mu * t + t * t;
     return h + s / (a + sqrt(max(a * a + s, 0.0)));
-}
-
-// Distance to the ground sphere ahead, FAR_AWAY if the ray does not go into the ground (tangent
-// rays graze; a camera below the ground sphere is not stopped). Rust: `ground_distance`.
-fn ground_distance(h: f32, mu: f32, planet_radius: f32) -> f32 {
-    let t = intersect_altitude_sphere(h, mu, planet_radius, 0.0);
-    return select(FAR_AWAY, t.x, t.x >= 0.0 && t.y > t.x);
 }
 
 // The parts of a ray inside the shell [base, top]: xy and zw are segments [start, end] (empty

@@ -13,9 +13,10 @@
 #import bevy_cloudscape::view_depth::{view, depth_prepass}
 #import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
 #import bevy_cloudscape::clouds::{clouds, march_clouds, ray_start_jitter}
-#import bevy_cloudscape::haze::{march_haze, composite_haze, shaft_factors, shaft_ray_end, haze}
+#import bevy_cloudscape::haze::{march_haze, composite_haze, shaft_factors, haze}
 #import bevy_cloudscape::composite::{
     footprint, footprint_texel, upsample_weights, uv_to_ndc, view_direction, surface_distance,
+    ray_end,
 }
 
 
@@ -63,11 +64,11 @@ fn shafts(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
     let h = clouds.camera_altitude_m;
     let up = clouds.camera_up.xyz;
     let factors = shaft_factors(h, up, ray.direction, ray.t_max, jitter);
-    return vec4<f32>(factors, shaft_ray_end(h, up, ray.direction, ray.t_max), 0.0);
+    return vec4<f32>(factors, ray_end(h, up, ray.direction, ray.t_max, clouds.planet_radius_m), 0.0);
 }
 
 // This pixel's shaft factors: the shaft pass's texels around `uv`, weighted for the distance
-// their rays were stopped at (`distance`: `shaft_ray_end`) like the upsample (Rust:
+// their rays were stopped at (`distance`: `ray_end`) like the upsample (Rust:
 // `reference::composite::upsample`). The clouds' mean shade without shafts.
 fn upsampled_shafts(uv: vec2<f32>, distance: f32) -> vec2<f32> {
     if haze.shafts == 0u {
@@ -106,13 +107,15 @@ fn fragment(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
     let jitter = ray_start_jitter(pixel);
     let cloud = march_clouds(clouds.camera_altitude_m, clouds.camera_up.xyz, direction, t_max, jitter);
     let up = clouds.camera_up.xyz;
-    let shafts = upsampled_shafts(in.uv, shaft_ray_end(clouds.camera_altitude_m, up, direction, t_max));
+    let end = ray_end(clouds.camera_altitude_m, up, direction, t_max, clouds.planet_radius_m);
+    let shafts = upsampled_shafts(in.uv, end);
     let hazy = march_haze(clouds.camera_altitude_m, clouds.camera_up.xyz, direction, t_max, cloud.distance, jitter, shafts);
     let result = composite_haze(hazy, cloud.colour);
 #ifdef LOW_RES
-    // Where the ray stopped (the upsample's depth weights) and where its content lies (the
-    // temporal accumulation's reprojection): the clouds, or the scene in front of them.
-    return MarchOutput(vec4<f32>(result.rgb * view.exposure, result.a), vec4<f32>(t_max, min(cloud.distance, t_max), 0.0, 0.0));
+    // Where the ray stopped, at the scene or the ground sphere (the upsample's depth weights),
+    // and where its content lies (the temporal accumulation's reprojection): the clouds, or the
+    // scene in front of them.
+    return MarchOutput(vec4<f32>(result.rgb * view.exposure, result.a), vec4<f32>(end, min(cloud.distance, t_max), 0.0, 0.0));
 #else
     return vec4<f32>(result.rgb * view.exposure, result.a);
 #endif

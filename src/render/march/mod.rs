@@ -1247,19 +1247,32 @@ fn march_cloud_layers(
         shafts.map_or(stand_in, |(target, _)| &target.factors.default_view),
     );
     let shaft_bind_group = shafts.map(|_| march_bind_group("cloud_shaft_bind_group", stand_in));
+    // Where the ground sphere is, for the full-resolution pixels of the upsample and the
+    // accumulation.
+    let ground = match &finish {
+        Finish::Direct => None,
+        Finish::Upsample { targets, .. } | Finish::Temporal { targets, .. } => {
+            let Some(ground) = targets.ground.binding() else {
+                return;
+            };
+            Some(ground)
+        }
+    };
     let upsample_layout = pick(&upsample.layouts);
-    let upsample_bind_group = |label: &'static str, colour: &TextureView, distance| {
+    let upsample_bind_group = |label: &'static str, colour: &TextureView, distance, ground| {
         device.create_bind_group(
             label,
             &upsample_layout,
-            &BindGroupEntries::sequential((view_binding.clone(), depth, colour, distance)),
+            &BindGroupEntries::sequential((view_binding.clone(), depth, colour, distance, ground)),
         )
     };
     let temporal_bind_group = match &finish {
         Finish::Temporal {
             targets, history, ..
         } => {
-            let Some(temporal_uniforms) = history.uniforms.binding() else {
+            let (Some(temporal_uniforms), Some(ground)) =
+                (history.uniforms.binding(), ground.clone())
+            else {
                 return;
             };
             Some(device.create_bind_group(
@@ -1273,6 +1286,7 @@ fn march_cloud_layers(
                     &history.read.default_view,
                     &temporal.sampler,
                     temporal_uniforms,
+                    ground,
                 )),
             ))
         }
@@ -1363,8 +1377,11 @@ fn march_cloud_layers(
         }
         _ => None,
     };
-    if let Some((label, colour, distance, pipeline)) = composite {
-        let group = upsample_bind_group(label, &colour.default_view, &distance.default_view);
+    if let Some((label, colour, distance, pipeline)) = composite
+        && let Some(ground) = ground
+    {
+        let group =
+            upsample_bind_group(label, &colour.default_view, &distance.default_view, ground);
         let attachment = target.get_color_attachment();
         fullscreen_pass(
             &mut ctx,
