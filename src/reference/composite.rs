@@ -2,14 +2,16 @@
 //! resolution (the cloud march at [`resolution_scale`] below 1, the light-shaft factors) without
 //! blending across the edges of near geometry.
 //!
-//! Each reduced-resolution texel stores its value and the distance its ray was stopped at (the
-//! scene's depth, or [`FAR_AWAY`] for the sky). A full-resolution pixel whose own ray stops at
-//! `d` blends its four nearest texels with their bilinear weights times
-//! `e^(−|d − dᵢ| / (DEPTH_TOLERANCE · min(d, dᵢ)))` ([`depth_weight`]): texels whose rays stopped
-//! at other geometry (the sky beside a hill, a hill in front of the sky) barely count. This is a
-//! joint bilateral upsample (Kopf et al. 2007) with a range kernel on relative distance, so one
-//! tolerance serves a hill at 500 m and one at 20 km. Where no texel saw this pixel's surface
-//! (all weights below `1e-4`: a thin object between texels), the texel nearest in distance wins.
+//! Each reduced-resolution texel stores its value and the distance its ray ends at
+//! ([`ray_end_m`]: the scene's depth or the planet's ground sphere, whichever is nearer, or
+//! [`FAR_AWAY`] for the sky). A full-resolution pixel whose own ray ends at `d` blends its four
+//! nearest texels with their bilinear weights times `e^(−|d − dᵢ| / (DEPTH_TOLERANCE · min(d,
+//! dᵢ)))` ([`depth_weight`]): texels whose rays stopped at other geometry (the sky beside a
+//! hill, a hill in front of the sky, the sky above a horizon with no ground geometry) barely
+//! count. This is a joint bilateral upsample (Kopf et al. 2007) with a range kernel on relative
+//! distance, so one tolerance serves a hill at 500 m and one at 20 km. Where no texel saw this
+//! pixel's surface (all weights below `1e-4`: a thin object between texels), the texel nearest
+//! in distance wins.
 //!
 //! # Temporal accumulation
 //!

@@ -3,7 +3,10 @@
 // The view rays of a fullscreen pass and the depth-aware upsample's weights, shared by
 // `upsample.wgsl` (the reduced-resolution march), `temporal.wgsl` (the temporal accumulation) and
 // `march.wgsl` (its rays, and the reduced-resolution light-shaft factors).
-// CPU twin: `src/reference/composite.rs` (same names; its module docs explain the weights).
+// Also the geometry on the curved planet that the march, the haze and the upsample share: the
+// sphere intersection, the ground and where a view ray ends.
+// CPU twin: `src/reference/composite.rs` (same names; its module docs explain the weights); the
+// geometry's is in `src/reference/render.rs`, `ray_end`'s in `composite.rs`.
 // Rust side: `src/render/composite/mod.rs`.
 
 // The distance a ray that meets no geometry (the sky) is stopped at, m. Rust: `FAR_AWAY`.
@@ -13,7 +16,7 @@ const FAR_AWAY: f32 = 3.0e38;
 const DEPTH_TOLERANCE: f32 = 0.05;
 // Below this total weight no texel saw the pixel's surface. Rust: `MIN_WEIGHT_SUM`.
 const MIN_WEIGHT_SUM: f32 = 1e-4;
-// A ray that misses a sphere. Rust: `None` (`intersect_altitude_sphere` there returns NaN).
+// What `intersect_altitude_sphere` returns for a ray that misses the sphere. Rust: `NO_HIT`.
 const NO_HIT: f32 = -1.0;
 
 // Where the ground sphere is for a view: the camera's local vertical (xyz) and altitude above
@@ -68,7 +71,6 @@ fn ray_end(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, planet_radiu
 fn view_ray_end(ground: ViewGround, direction: vec3<f32>, t_max: f32) -> f32 {
     return ray_end(ground.camera_up_altitude.w, ground.camera_up_altitude.xyz, direction, t_max, ground.planet_radius_m);
 }
-
 
 // How much a texel whose ray stopped at `tap_m` counts for a pixel whose ray stops at
 // `pixel_m`, before the bilinear weight. Rust: `depth_weight`.

@@ -3,7 +3,8 @@
 // weights times `depth_weight` (`composite.wgsl`) of where the rays end (`view_ray_end`: the
 // scene or the ground sphere), so a pixel of near geometry takes only texels that were stopped
 // at similar geometry, cloud in front of the sky does not bleed over a hill's edge, and the sky
-// does not bleed below the horizon of a scene with no ground of its own. The output is blended as `scene * T + L`, like the full-resolution march.
+// does not bleed below the horizon of a scene with no ground of its own. The output is blended
+// as `scene * T + L`, like the full-resolution march.
 // A second entry, `copy`, composites a full-resolution image as it is (the temporal history,
 // `temporal.wgsl`).
 // CPU twin: `upsample` in `src/reference/composite.rs`. Rust side:
