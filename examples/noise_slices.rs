@@ -15,10 +15,10 @@ use std::path::{Path, PathBuf};
 
 use bevy::{prelude::*, render::render_resource::TextureFormat};
 use bevy_cloudscape::{
-    reference::noise::{NoiseRecipe, mip_level_count, mip_size},
+    reference::noise::{NoiseRecipe, mip_level_count, mip_size, quantize_unorm8},
     render::noise::{CloudNoisePlugin, CloudNoiseSettings, CloudNoiseTextures},
 };
-use common::headless::Headless;
+use common::headless::{Headless, f16_to_f32};
 
 struct Args {
     out: PathBuf,
@@ -65,6 +65,14 @@ fn write_tiled(path: &Path, rgba: &[u8], size: u32, channel: usize) -> Result<()
         .map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
+/// `Rgba16Float` texels (8 bytes each, as the base and detail noise are stored) as RGBA8.
+fn half_floats_to_rgba8(bytes: &[u8]) -> Vec<u8> {
+    bytes
+        .chunks_exact(2)
+        .map(|h| quantize_unorm8(f64::from(f16_to_f32(u16::from_le_bytes([h[0], h[1]])))))
+        .collect()
+}
+
 fn run(args: &Args) -> Result<(), String> {
     std::fs::create_dir_all(&args.out)
         .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
@@ -88,7 +96,7 @@ fn run(args: &Args) -> Result<(), String> {
     ] {
         let mut level_size = size;
         for level in 0..mip_level_count(size) {
-            let bytes = app.read_texture(texture, level);
+            let bytes = half_floats_to_rgba8(&app.read_texture(texture, level));
             // The z = 0 slice is the first level_size² texels.
             let slice = &bytes[..(level_size * level_size * 4) as usize];
             for (channel, suffix) in channels.iter().enumerate() {

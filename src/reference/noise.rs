@@ -44,11 +44,12 @@
 //! The weather noise is a slice of the 3D noises at `z =` [`WEATHER_SLICE_Z`]; curl is stored
 //! as `0.5 + 0.5 * clamp(curl / CURL_RANGE, -1, 1)`. All values lie in `[0, 1]`.
 //!
-//! The GPU writes `Rgba8Unorm`, which stores `round(v * 255)` ([`quantize_unorm8`]; graphics APIs
-//! allow a conversion tolerance, so a value within rounding of a half step may land either way). Mips are a
-//! 2×2×2 box average ([`downsample_3d`]); the GPU averages the *quantized* level above, so
-//! compare a GPU mip with `downsample_3d` of the GPU's own previous level, or allow the rounding
-//! of each level.
+//! The GPU stores the base and detail noise as `Rgba16Float`, each value rounded to a multiple of
+//! `2^-11` ([`quantize_noise`]), and the weather noise as `Rgba8Unorm`, which stores
+//! `round(v * 255)` ([`quantize_unorm8`]). Graphics APIs allow a conversion tolerance, so a value
+//! within rounding of a half step may land either way. Mips are a 2×2×2 box average
+//! ([`downsample_3d`]); the GPU averages the *quantized* level above, so compare a GPU mip with
+//! `downsample_3d` of the GPU's own previous level, or allow the rounding of each level.
 //!
 //! # Precision against the f32 twin
 //!
@@ -57,8 +58,9 @@
 //! integers wrapped on integers, and a noise is evaluated from the fractional part within its
 //! cell, never from large absolute coordinates; the f32 result then differs from f64 by about
 //! `1e-6` (about `1e-5` for the curl, a difference quotient), far below the `1/255` step of the
-//! texture. On lavapipe the stored bytes match [`quantize_unorm8`] of this module exactly on
-//! almost every texel and never differ by more than one step.
+//! weather texture and the `2^-11` step of a half float just under 1. On lavapipe the stored
+//! values match [`quantize_unorm8`] and [`quantize_noise`] of this module exactly on almost every
+//! texel and never differ by more than one step.
 
 use bevy::reflect::Reflect;
 
@@ -756,6 +758,25 @@ pub fn quantize_unorm8(value: f64) -> u8 {
     (value.clamp(0.0, 1.0) * 255.0).round() as u8
 }
 
+/// Steps per unit of the grid the base and detail noise are stored on: values are multiples of
+/// `1 / NOISE_LEVELS` (`2^-11`), each exactly a half float.
+pub const NOISE_LEVELS: f64 = 2048.0;
+
+/// The value the GPU stores in the `Rgba16Float` base and detail noise for `value`:
+/// `floor(clamp(value, 0, 1) · 2048 + 0.5) / 2048` ([`NOISE_LEVELS`]). The shader rounds to this
+/// grid itself before it writes, because every multiple of `2^-11` in `[0, 1]` is a half float
+/// and so is stored exactly, whatever rounding the GPU applies when it converts f32 to f16 (the
+/// Vulkan specification allows round-to-nearest-even or round-toward-zero; lavapipe truncates,
+/// which on its own leaves the texels half a step low on average). WGSL twin: `quantize_noise`.
+pub fn quantize_noise(value: f64) -> f64 {
+    let v = if value.is_nan() {
+        0.0
+    } else {
+        value.clamp(0.0, 1.0)
+    };
+    (v * NOISE_LEVELS + 0.5).floor() / NOISE_LEVELS
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1079,5 +1100,33 @@ mod tests {
         assert_eq!(quantize_unorm8(0.5), 128);
         assert_eq!(quantize_unorm8(1.5 / 255.0 - 1e-9), 1);
         assert_eq!(quantize_unorm8(-0.2), 0);
+    }
+
+    #[test]
+    fn noise_quantization_rounds_to_half_floats_on_an_even_grid() {
+        let step = 1.0 / NOISE_LEVELS;
+        assert_eq!(quantize_noise(0.0), 0.0);
+        assert_eq!(quantize_noise(1.0), 1.0);
+        assert_eq!(quantize_noise(2.0), 1.0, "clamped to [0, 1]");
+        assert_eq!(quantize_noise(-0.5), 0.0, "clamped to [0, 1]");
+        assert_eq!(quantize_noise(f64::NAN), 0.0);
+        assert_eq!(quantize_noise(0.5 + 0.4 * step), 0.5);
+        assert_eq!(quantize_noise(0.5 + 0.6 * step), 0.5 + step);
+        // Every grid value is a half float: it survives f32 → f16 → f32 under any rounding, since
+        // a multiple of 2^-11 in [0, 1] needs at most 11 significant bits.
+        for k in 0..=2048_u32 {
+            let v = f64::from(k) / NOISE_LEVELS;
+            assert_eq!(quantize_noise(v), v);
+            let significant = if k == 0 {
+                0
+            } else {
+                32 - k.leading_zeros() - k.trailing_zeros()
+            };
+            assert!(significant <= 11, "{k}");
+        }
+        for k in 0..=1000 {
+            let v = f64::from(k) / 1000.0;
+            assert!((quantize_noise(v) - v).abs() <= 0.5 * step);
+        }
     }
 }

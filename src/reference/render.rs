@@ -54,25 +54,27 @@
 //!
 //! # Textures
 //!
-//! [`CloudTextures`] holds exactly the texels the GPU samples: the noise of [`super::noise`]
-//! quantised to `Rgba8Unorm` bytes, with mip levels box-filtered from the quantised level above
-//! and quantised again. Sampling is trilinear with repeat addressing and linear mip interpolation,
-//! texel centres at `(i + 0.5) / n`, as a `linear`/`linear`/`linear`, `repeat` sampler does. The
-//! only differences from the GPU are then f32 against f64 and the GPU's filtering precision.
+//! [`CloudTextures`] holds exactly the texels the GPU samples: the base and detail noise of
+//! [`super::noise`] rounded to multiples of `2^-11` and stored as half floats (`Rgba16Float`,
+//! [`super::noise::quantize_noise`]), with mip levels box-filtered from the rounded level above
+//! and rounded again, and the weather noise quantised to `Rgba8Unorm` bytes.
+//! Sampling is trilinear with repeat addressing and linear mip interpolation, texel centres at
+//! `(i + 0.5) / n`, as a `linear`/`linear`/`linear`, `repeat` sampler does. The only differences
+//! from the GPU are then f32 against f64 and the GPU's filtering precision.
 //!
-//! That precision matters on lavapipe (llvmpipe, the software Vulkan of the test machines): it
-//! filters `Rgba8Unorm` in 8-bit fixed point and returns results rounded to 1/255 (measured: up to
-//! 1.5/255 from the exact trilinear value, 0.35/255 on average). The coverage and erosion remaps
-//! amplify such differences (the coverage ramp about sevenfold), so the shader filters the
-//! local coverage itself from four texel loads, exactly as [`weather_coverage`] does; the 3D
-//! noises use the sampler (trilinear with mips), and their rounding leaves differences of a few
-//! tenths of a per cent in images on lavapipe, a few per cent on single rays (a cheap sample can
-//! flip between zero and non-zero). With `Rgba32Float` textures of the same texel values the GPU
-//! matches this module to about 1e-4 per ray. Compare images, not single rays, on lavapipe.
+//! That precision is why the 3D noise is stored as half floats. The coverage and erosion remaps
+//! amplify small differences in the filtered noise (the coverage ramp about sevenfold, the
+//! carving of heaps inside cloudy patches fourfold more), and lavapipe (llvmpipe, the software
+//! Vulkan of the test machines) filters `Rgba8Unorm` in 8-bit fixed point and rounds the result to
+//! 1/255 (measured: up to 1.5/255 from the exact trilinear value, 0.35/255 on average). Half
+//! floats are filtered in float. The weather noise stays in bytes: the shader filters the local
+//! coverage itself from four texel loads, exactly as [`weather_coverage`] does. Single rays can
+//! still differ by a few per cent where a cheap sample flips between zero and non-zero, so
+//! compare images, not single rays.
 
 use super::noise::{
     NoiseRecipe, downsample_3d, generate_base, generate_detail, generate_weather, mip_level_count,
-    mip_size, quantize_unorm8,
+    mip_size, quantize_noise, quantize_unorm8,
 };
 use super::shadow::ShadowMapImage;
 
@@ -455,22 +457,28 @@ impl MarchResult {
 // Textures
 // ---------------------------------------------------------------------------------------------
 
-/// A 3D `Rgba8Unorm` texture with its full mip chain, as the GPU holds it.
+/// A 3D `Rgba16Float` texture with its full mip chain, as the GPU holds the base and detail
+/// noise: values on the grid of [`quantize_noise`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct NoiseTexture3d {
     /// Texels per side of level 0.
     pub size: u32,
     /// The mip levels, level 0 first, each `side³` texels, x fastest, then y, then z; level `n`
-    /// has side [`mip_size`] applied `n` times.
-    pub levels: Vec<Vec<[u8; 4]>>,
+    /// has side [`mip_size`] applied `n` times. Every value is a multiple of `2^-11`
+    /// ([`quantize_noise`]), held exactly as `f32`.
+    pub levels: Vec<Vec<[f32; 4]>>,
 }
 
 impl NoiseTexture3d {
-    /// Quantises `level0` (`size³` texels in `[0, 1]`) to bytes and builds the mips as the GPU
-    /// does: each level is [`downsample_3d`] of the *quantised* level above, quantised again.
+    /// Rounds `level0` (`size³` texels in `[0, 1]`) with [`quantize_noise`] and builds the mips
+    /// as the GPU does: each level is [`downsample_3d`] of the *rounded* level above, rounded
+    /// again.
     pub fn from_level0(level0: &[[f64; 4]], size: u32) -> Self {
-        let quantise = |texels: &[[f64; 4]]| -> Vec<[u8; 4]> {
-            texels.iter().map(|t| t.map(quantize_unorm8)).collect()
+        let quantise = |texels: &[[f64; 4]]| -> Vec<[f32; 4]> {
+            texels
+                .iter()
+                .map(|t| t.map(|v| quantize_noise(v) as f32))
+                .collect()
         };
         let mut levels = vec![quantise(level0)];
         let mut side = size;
@@ -479,7 +487,7 @@ impl NoiseTexture3d {
                 .last()
                 .expect("level 0 exists")
                 .iter()
-                .map(|t| t.map(unorm8))
+                .map(|t| t.map(f64::from))
                 .collect();
             levels.push(quantise(&downsample_3d(&above, side)));
             side = mip_size(side);
@@ -505,7 +513,7 @@ impl NoiseTexture3d {
             let index = x.0 as usize + n as usize * (y.0 as usize + n as usize * z.0 as usize);
             let texel = texels[index];
             for (s, t) in sum.iter_mut().zip(texel) {
-                *s += weight * unorm8(t);
+                *s += weight * f64::from(t);
             }
         }
         sum
@@ -911,22 +919,56 @@ pub const COVERAGE_EDGE_WIDTH: f64 = 0.25;
 /// coverage 1 (the weather pattern alone would leave its lowest values clear).
 pub const OVERCAST_COVERAGE: f64 = 0.9;
 
-/// Local coverage `κ`, 0–1, from the layer's `coverage` (0–1) and the weather noise's coverage
-/// channel `weather` (0–1): where the weather map makes clouds form (seed 002, "Density Model").
+/// Local coverage in the middle of a cloudy patch while the layer is broken: the base shape must
+/// exceed `1 − PATCH_COVERAGE` (times the profile) to hold cloud, so the shape noise carves
+/// separate heaps out of each patch instead of filling it from edge to edge.
 ///
-/// The weather value is stretched over [`WEATHER_COVERAGE_RANGE`] to `w`; `κ` ramps from 0 at
-/// `w = 1 − coverage` to 1 over [`COVERAGE_EDGE_WIDTH`], so about that fraction of the map holds
-/// cloud; above [`OVERCAST_COVERAGE`] it blends to 1 everywhere. Coverage 0 gives exactly 0
-/// everywhere and coverage 1 exactly 1 (overcast). WGSL twin: `local_coverage`.
+/// For the default noise recipe the base shape spans 0.63–0.98 between its 5th and 90th
+/// percentiles (median 0.84, measured on the 128³ texels), so a threshold of 0.75 leaves about
+/// two thirds of a patch cloudy at the profile's peak and less toward its ends.
+pub const PATCH_COVERAGE: f64 = 0.25;
+
+/// How much more of the map the cloudy patches cover than the layer's coverage:
+/// `min(1, PATCH_AREA_GAIN · coverage)` of it. The carving inside the patches takes the cloudy
+/// fraction back down, so that it follows the coverage (about 0.2, 0.6 and 0.9 of the sky at
+/// coverage 0.2, 0.5 and 0.8).
+pub const PATCH_AREA_GAIN: f64 = 2.5;
+
+/// Layer coverage from which the peak of the local coverage rises from [`PATCH_COVERAGE`] to 1
+/// (reached at coverage 1), so that the heaps merge and the layer closes to overcast.
+pub const CLOSING_COVERAGE: f64 = 0.75;
+
+/// Local coverage `κ`, 0–1, from the layer's `coverage` (0–1) and the weather noise's coverage
+/// channel `weather` (0–1): where the weather map makes clouds form and how much of the shape
+/// noise becomes cloud there (seed 002, "Density Model").
+///
+/// The weather value is stretched over [`WEATHER_COVERAGE_RANGE`] to `w`. Cloudy patches cover
+/// about `min(1, PATCH_AREA_GAIN · coverage)` of the map: the patch field ramps from 0 at
+/// `w = 1 − area` to 1 over [`COVERAGE_EDGE_WIDTH`]. Inside a patch `κ` reaches the peak
+/// [`PATCH_COVERAGE`], rising to 1 from [`CLOSING_COVERAGE`] to coverage 1; above
+/// [`OVERCAST_COVERAGE`] `κ` blends to 1 everywhere. Coverage 0 gives exactly 0 everywhere and
+/// coverage 1 exactly 1 (overcast). WGSL twin: `local_coverage`.
 pub fn local_coverage(coverage: f64, weather: f64) -> f64 {
     if !is_positive(coverage) {
         return 0.0;
     }
     let [low, high] = WEATHER_COVERAGE_RANGE;
     let w = saturate((weather - low) / (high - low));
-    let field = saturate((w - (1.0 - coverage)) / COVERAGE_EDGE_WIDTH);
+    let area = (PATCH_AREA_GAIN * coverage).min(1.0);
+    let field = saturate((w - (1.0 - area)) / COVERAGE_EDGE_WIDTH);
+    let closing = saturate((coverage - CLOSING_COVERAGE) / (1.0 - CLOSING_COVERAGE));
+    let peak = lerp(PATCH_COVERAGE, 1.0, closing);
     let overcast = saturate((coverage - OVERCAST_COVERAGE) / (1.0 - OVERCAST_COVERAGE));
-    field.max(overcast)
+    (field * peak).max(overcast)
+}
+
+/// How full a patch is where the local coverage is `κ`: `saturate(κ / PATCH_COVERAGE)`, 1 from
+/// the middle of a broken layer's patch up. It scales the density, so the carved heaps are as
+/// dense as a full layer's clouds, and it sets how high the profile reaches
+/// ([`coverage_height_scale`]), so the heaps stand tallest in the middle of their patch.
+/// WGSL twin: `patch_fill`.
+pub fn patch_fill(kappa: f64) -> f64 {
+    saturate(kappa / PATCH_COVERAGE)
 }
 
 /// Local coverage `κ` of weather texel `texel` (an index along the noise axes, not wrapped: the
@@ -1058,7 +1100,7 @@ pub fn texture_lod(footprint_m: f64, texel_m: f64) -> f64 {
 ///
 /// Seed 002's model ("Density Model"; Schneider 2015): the profile at the height fraction times
 /// the base shape, remapped by the local coverage `κ` as `saturate(remap(shape · profile, 1 − κ,
-/// 1, 0, 1)) · κ`, then eroded by the detail, `saturate(remap(d, erosion, 1, 0, 1))`. The shape
+/// 1, 0, 1)) · fill`, with `fill` the [`patch_fill`] of `κ`, then eroded by the detail, `saturate(remap(d, erosion, 1, 0, 1))`. The shape
 /// and the erosion are blended in by [`MarchLayer::shape_strength`]; at 0 there is no noise and a
 /// layer of coverage 1 is exactly its profile. Coverage 0 returns exactly 0. WGSL twin:
 /// `layer_density`.
@@ -1080,9 +1122,10 @@ pub fn layer_density(
     if !is_positive(kappa) {
         return 0.0;
     }
+    let fill = patch_fill(kappa);
     let profile = profile_density(
         layer,
-        height_fraction / coverage_height_scale(layer.coverage_height, kappa),
+        height_fraction / coverage_height_scale(layer.coverage_height, fill),
     );
     if !is_positive(profile) {
         return 0.0;
@@ -1099,7 +1142,7 @@ pub fn layer_density(
         let sample = textures.base.sample(uvw, texture_lod(footprint_m, texel_m));
         shape = lerp(1.0, base_shape(sample), strength);
     }
-    let covered = saturate(remap(shape * profile, 1.0 - kappa, 1.0, 0.0, 1.0)) * kappa;
+    let covered = saturate(remap(shape * profile, 1.0 - kappa, 1.0, 0.0, 1.0)) * fill;
     let erosion_strength = layer.detail_erosion.clamp(0.0, MAX_DETAIL_EROSION) * strength;
     if !with_detail || !is_positive(erosion_strength) || !is_positive(covered) {
         return covered * layer.extinction;
@@ -2256,12 +2299,44 @@ mod tests {
     }
 
     #[test]
+    fn the_shape_noise_carves_heaps_out_of_the_middle_of_a_patch() {
+        // At the densest height of a broken cumulus layer (the profile's peak, a tenth of the way
+        // up), in the middle of its cloudy patches (patch fill 1), the shape noise must leave
+        // clear air between heaps: a patch filled from edge to edge is a wall of cloud, not
+        // cumulus. It must not carve the patch away either.
+        let layer = cumulus(0.5);
+        let altitude = layer.base_m + 0.1 * (layer.top_m - layer.base_m);
+        let (mut full, mut clear) = (0, 0);
+        for i in 0..80 {
+            for j in 0..80 {
+                let x = [f64::from(i) * 173.0, f64::from(j) * 211.0 - 7_000.0];
+                let kappa =
+                    weather_coverage(&textures().weather, &layer, x, altitude - layer.base_m);
+                if patch_fill(kappa) < 1.0 {
+                    continue;
+                }
+                full += 1;
+                if layer_density(textures(), &layer, x, altitude, 0.0, true) == 0.0 {
+                    clear += 1;
+                }
+            }
+        }
+        let fraction = f64::from(clear) / f64::from(full);
+        println!("{clear} of {full} points in full patches are clear ({fraction:.3})");
+        assert!(full > 500, "only {full} points in full patches");
+        assert!(
+            (0.1..0.9).contains(&fraction),
+            "{clear} of {full} points in full patches are clear"
+        );
+    }
+
+    #[test]
     fn clouds_come_down_toward_the_edge_of_the_coverage() {
         // No shape noise: the cloud is the profile remapped by κ. Along a line across the
         // weather pattern, at full coverage height each column's top comes down by the factor
         // κ (2 − κ) against the same layer at coverage height 0.
         let layer = |coverage_height| MarchLayer {
-            coverage: 0.5,
+            coverage: 0.2,
             shape_strength: 0.0,
             coverage_height,
             ..MarchLayer::default()
@@ -2281,16 +2356,17 @@ mod tests {
             }
             // With no noise a point is cloudy where the profile exceeds 1 − κ, and κ is the same
             // at every height (no skew): the domed column is the walled one squeezed by
-            // κ (2 − κ).
+            // f (2 − f), f the patch fill.
             assert!(walled_top > 0.0, "cloudy at κ = {kappa}");
-            let squeeze = kappa * (2.0 - kappa);
+            let fill = patch_fill(kappa);
+            let squeeze = fill * (2.0 - fill);
             // Below κ = 0.1 the cloudy stretch of the column is narrower than the grid.
             let tolerance = if kappa > 0.1 { 2e-3 } else { 0.05 };
             assert!(
                 (domed_top - squeeze * walled_top).abs() < tolerance,
                 "top {domed_top} against {squeeze} · {walled_top} at κ = {kappa}"
             );
-            if kappa < 0.9 {
+            if fill < 0.9 {
                 partial += 1;
             } else {
                 full += 1;
@@ -2616,7 +2692,7 @@ mod tests {
         let base = &textures().base;
         let n = base.size;
         // At a texel centre level 0 returns the texel itself.
-        let texel = base.levels[0][(3 + n * (5 + n * 7)) as usize].map(unorm8);
+        let texel = base.levels[0][(3 + n * (5 + n * 7)) as usize].map(f64::from);
         let centre = [3.5, 5.5, 7.5].map(|c| c / f64::from(n));
         assert_eq!(base.sample(centre, 0.0), texel);
         // Repeat addressing, negative coordinates included.
@@ -2628,17 +2704,27 @@ mod tests {
             }
         }
         // The last mip is one texel; lod beyond the chain clamps to it.
-        let last = base.levels.last().unwrap()[0].map(unorm8);
-        assert_eq!(base.sample([0.123, 0.456, 0.789], 99.0), last);
+        let last = base.levels.last().unwrap()[0].map(f64::from);
+        let sampled = base.sample([0.123, 0.456, 0.789], 99.0);
+        for c in 0..4 {
+            assert!(
+                (sampled[c] - last[c]).abs() < 1e-12,
+                "{sampled:?} against {last:?}"
+            );
+        }
         assert_eq!(base.levels.len(), 5);
-        // Mips are the box filter of the quantised level above, quantised.
+        // Mips are the box filter of the rounded level above, rounded again.
         let level1 = &base.levels[1];
-        let above: Vec<[f64; 4]> = base.levels[0].iter().map(|t| t.map(unorm8)).collect();
-        let expected: Vec<[u8; 4]> = downsample_3d(&above, n)
+        let above: Vec<[f64; 4]> = base.levels[0].iter().map(|t| t.map(f64::from)).collect();
+        let expected: Vec<[f32; 4]> = downsample_3d(&above, n)
             .iter()
-            .map(|t| t.map(quantize_unorm8))
+            .map(|t| t.map(|v| quantize_noise(v) as f32))
             .collect();
         assert_eq!(level1, &expected);
+        // Every texel of every level lies on the grid of 2^-11.
+        for v in base.levels.iter().flatten().flatten() {
+            assert_eq!((v * 2048.0).fract(), 0.0, "{v} is off the grid");
+        }
         // Halfway between two texel centres of the weather texture: their mean.
         let weather = &textures().weather;
         let m = f64::from(weather.size);

@@ -181,9 +181,9 @@ struct CloudLayerGpu {
 
 @group(0) @binding(2) var<uniform> clouds: CloudUniforms;
 @group(0) @binding(3) var<storage, read> cloud_layers: array<CloudLayerGpu>;
-// Rgba8Unorm with full mips: R Perlin-Worley, G/B/A Worley fBm (reference/noise.rs).
+// Rgba16Float with full mips: R Perlin-Worley, G/B/A Worley fBm (reference/noise.rs).
 @group(0) @binding(4) var base_noise: texture_3d<f32>;
-// Rgba8Unorm with full mips: R/G/B Worley fBm, A unused.
+// Rgba16Float with full mips: R/G/B Worley fBm, A unused.
 @group(0) @binding(5) var detail_noise: texture_3d<f32>;
 // Rgba8Unorm, one mip: R coverage Perlin-Worley, G variation, B/A curl. Read with textureLoad
 // (`weather_texel_coverage`).
@@ -227,6 +227,9 @@ const FBM_WEIGHTS: vec3<f32> = vec3<f32>(0.625, 0.25, 0.125);
 const WEATHER_COVERAGE_RANGE: vec2<f32> = vec2<f32>(0.4, 0.95);
 const COVERAGE_EDGE_WIDTH: f32 = 0.25;
 const OVERCAST_COVERAGE: f32 = 0.9;
+const PATCH_COVERAGE: f32 = 0.25;
+const PATCH_AREA_GAIN: f32 = 2.5;
+const CLOSING_COVERAGE: f32 = 0.75;
 // Below this optical thickness `mean_step_transmittance` uses its series (Rust: SERIES_LIMIT,
 // 1e-5 there because f64 has expm1).
 const SERIES_LIMIT: f32 = 0.1;
@@ -416,16 +419,26 @@ fn profile_density(layer: CloudLayerGpu, height_fraction: f32) -> f32 {
     return previous.y;
 }
 
-// Local coverage from the layer coverage and the weather channel: 0 everywhere at coverage 0,
-// 1 everywhere at coverage 1. Rust: `local_coverage`.
+// Local coverage from the layer coverage and the weather channel: patches over
+// min(1, PATCH_AREA_GAIN * coverage) of the map, PATCH_COVERAGE in their middle (rising to 1
+// from CLOSING_COVERAGE), 0 everywhere at coverage 0, 1 everywhere at coverage 1.
+// Rust: `local_coverage`.
 fn local_coverage(coverage: f32, weather: f32) -> f32 {
     if !(coverage > 0.0) {
         return 0.0;
     }
     let w = saturate((weather - WEATHER_COVERAGE_RANGE.x) / (WEATHER_COVERAGE_RANGE.y - WEATHER_COVERAGE_RANGE.x));
-    let field = saturate((w - (1.0 - coverage)) / COVERAGE_EDGE_WIDTH);
+    let area = min(PATCH_AREA_GAIN * coverage, 1.0);
+    let field = saturate((w - (1.0 - area)) / COVERAGE_EDGE_WIDTH);
+    let closing = saturate((coverage - CLOSING_COVERAGE) / (1.0 - CLOSING_COVERAGE));
+    let peak = mix(PATCH_COVERAGE, 1.0, closing);
     let overcast = saturate((coverage - OVERCAST_COVERAGE) / (1.0 - OVERCAST_COVERAGE));
-    return max(field, overcast);
+    return max(field * peak, overcast);
+}
+
+// How full a patch is: 1 from the middle of a broken layer's patch up. Rust: `patch_fill`.
+fn patch_fill(kappa: f32) -> f32 {
+    return saturate(kappa / PATCH_COVERAGE);
 }
 
 // How far the profile is stretched up the layer where the local coverage is `kappa`:
@@ -538,7 +551,8 @@ fn layer_density(layer: CloudLayerGpu, horizontal_m: vec2<f32>, altitude_m: f32,
     if !(kappa > 0.0) {
         return 0.0;
     }
-    let profile = profile_density(layer, height_fraction / coverage_height_scale(layer.coverage_height, kappa));
+    let fill = patch_fill(kappa);
+    let profile = profile_density(layer, height_fraction / coverage_height_scale(layer.coverage_height, fill));
     if !(profile > 0.0) {
         return 0.0;
     }
@@ -550,7 +564,7 @@ fn layer_density(layer: CloudLayerGpu, horizontal_m: vec2<f32>, altitude_m: f32,
         let texel_m = layer.shape_scale_m / f32(textureDimensions(base_noise).x);
         shape = mix(1.0, base_shape(sample_base_noise(uvw, texture_lod(footprint_m, texel_m))), strength);
     }
-    let covered = saturate(remap(shape * profile, 1.0 - kappa, 1.0, 0.0, 1.0)) * kappa;
+    let covered = saturate(remap(shape * profile, 1.0 - kappa, 1.0, 0.0, 1.0)) * fill;
     let erosion_strength = clamp(layer.detail_erosion, 0.0, MAX_DETAIL_EROSION) * strength;
     if !with_detail || !(erosion_strength > 0.0) || !(covered > 0.0) {
         return covered * layer.extinction;

@@ -2,9 +2,9 @@
 //!
 //! Three textures feed the cloud ray-march (seed 002, "Cloud textures"):
 //!
-//! - **base**, 3D `Rgba8Unorm`, 128³ by default: Perlin-Worley and three Worley fBm octaves sets
-//!   that shape the clouds;
-//! - **detail**, 3D `Rgba8Unorm`, 32³: three Worley fBm that erode the edges;
+//! - **base**, 3D `Rgba16Float`, 128³ by default: Perlin-Worley and three Worley fBm octaves
+//!   sets that shape the clouds;
+//! - **detail**, 3D `Rgba16Float`, 32³: three Worley fBm that erode the edges;
 //! - **weather**, 2D `Rgba8Unorm`, 256²: coverage noise and curl for the weather maps.
 //!
 //! The formulas, channel recipes and tiling are documented in [`crate::reference::noise`], the
@@ -20,8 +20,8 @@
 //!
 //! # Cost
 //!
-//! The default textures take 9.74 MB of GPU memory with mips (base 9.59 MB, detail 0.15 MB) plus
-//! 0.26 MB for the weather noise. Generation is a one-off; on lavapipe (software Vulkan on two
+//! The default textures take 19.47 MB of GPU memory with mips (base 19.17 MB, detail 0.30 MB,
+//! at 8 bytes a texel) plus 0.26 MB for the weather noise. Generation is a one-off; on lavapipe (software Vulkan on two
 //! CPU cores) it takes about 3 s.
 //!
 //! # Platform limits
@@ -97,12 +97,14 @@ fn check_device(world: &World) -> Result<(), String> {
     {
         return Err("the GPU has no compute shaders".into());
     }
-    if !adapter
-        .get_texture_format_features(TextureFormat::Rgba8Unorm)
-        .allowed_usages
-        .contains(TextureUsages::STORAGE_BINDING)
-    {
-        return Err("the GPU cannot write Rgba8Unorm storage textures".into());
+    for format in [NOISE_3D_FORMAT, NOISE_2D_FORMAT] {
+        if !adapter
+            .get_texture_format_features(format)
+            .allowed_usages
+            .contains(TextureUsages::STORAGE_BINDING)
+        {
+            return Err(format!("the GPU cannot write {format:?} storage textures"));
+        }
     }
     // The device, unlike the adapter, honours WGPU_SETTINGS_PRIO limits.
     let limits = world.resource::<RenderDevice>().limits();
@@ -111,6 +113,18 @@ fn check_device(world: &World) -> Result<(), String> {
     }
     Ok(())
 }
+
+/// Texel format of the base and detail noise: half floats, so that the sampler filters in float.
+///
+/// The coverage and erosion remaps multiply small differences in the filtered noise many times
+/// over, and filtering `Rgba8Unorm` is not exact on every GPU (lavapipe filters it in 8-bit fixed
+/// point and rounds the result to 1/255). Half floats hold the noise eight times finer than
+/// bytes and are filtered in float, so the march and its CPU twin sample the same values.
+pub const NOISE_3D_FORMAT: TextureFormat = TextureFormat::Rgba16Float;
+
+/// Texel format of the weather noise. The march filters the weather noise itself from texel
+/// loads, so bytes lose nothing there.
+pub const NOISE_2D_FORMAT: TextureFormat = TextureFormat::Rgba8Unorm;
 
 /// The noise uniform, laid out as `NoiseParams` in `noise.wgsl` (160 bytes, 16-byte fields).
 /// fBm slot `s` is lane `s % 4` of the `_{s / 4}` vectors ([`NoiseRecipe::fbm_slots`]).
@@ -178,8 +192,7 @@ fn init_cloud_noise_pipelines(
     asset_server: Res<AssetServer>,
     pipeline_cache: Res<PipelineCache>,
 ) {
-    let storage_3d =
-        || texture_storage_3d(TextureFormat::Rgba8Unorm, StorageTextureAccess::WriteOnly);
+    let storage_3d = || texture_storage_3d(NOISE_3D_FORMAT, StorageTextureAccess::WriteOnly);
     let generate_3d_layout = BindGroupLayoutDescriptor::new(
         "cloud_noise_generate_3d_layout",
         &BindGroupLayoutEntries::with_indices(
@@ -198,7 +211,7 @@ fn init_cloud_noise_pipelines(
                 (0, uniform_buffer::<GpuNoiseParams>(false)),
                 (
                     2,
-                    texture_storage_2d(TextureFormat::Rgba8Unorm, StorageTextureAccess::WriteOnly),
+                    texture_storage_2d(NOISE_2D_FORMAT, StorageTextureAccess::WriteOnly),
                 ),
             ),
         ),
@@ -347,9 +360,9 @@ fn prepare_cloud_noise_textures(
     params.set_label(Some("cloud_noise_params"));
     params.write_buffer(&device, &queue);
     let make_texture = |label: &'static str, size: u32, dimension: TextureDimension| {
-        let (depth, mips) = match dimension {
-            TextureDimension::D3 => (size, mip_level_count(size)),
-            _ => (1, 1),
+        let (depth, mips, format) = match dimension {
+            TextureDimension::D3 => (size, mip_level_count(size), NOISE_3D_FORMAT),
+            _ => (1, 1, NOISE_2D_FORMAT),
         };
         let texture = device.create_texture(&TextureDescriptor {
             label: Some(label),
@@ -361,7 +374,7 @@ fn prepare_cloud_noise_textures(
             mip_level_count: mips,
             sample_count: 1,
             dimension,
-            format: TextureFormat::Rgba8Unorm,
+            format,
             usage: TextureUsages::STORAGE_BINDING
                 | TextureUsages::TEXTURE_BINDING
                 | TextureUsages::COPY_SRC,

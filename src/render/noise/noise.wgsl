@@ -14,7 +14,7 @@
 // | generate_weather  | 8×8×1     | uniform            |                          | write                    |                               |
 // | downsample_3d     | 4×4×4     |                    | mip n, write             |                          | mip n - 1, textureLoad        |
 //
-// - noise_3d_out: `texture_storage_3d<rgba8unorm, write>`, a view of one mip level. The size
+// - noise_3d_out: `texture_storage_3d<rgba16float, write>`, a view of one mip level. The size
 //   written is `textureDimensions(noise_3d_out)` (textures are cubes; `.x` is the side).
 // - noise_2d_out: `texture_storage_2d<rgba8unorm, write>` (square).
 // - downsample_source: `texture_3d<f32>`, a view whose base mip is level n - 1 of the same
@@ -23,7 +23,10 @@
 // - Dispatch ceil(size / 4) workgroups per axis for 3D (ceil(size / 8) in x and y for 2D);
 //   invocations outside the texture return early, so sizes need not be multiples of 4 or 8.
 //
-// Rgba8Unorm stores round(v * 255) of each value v in [0, 1] (Rust: `quantize_unorm8`).
+// Every value written lies in [0, 1]. Rgba8Unorm (weather) stores round(v * 255) (Rust:
+// `quantize_unorm8`). Base and detail (Rgba16Float) are rounded here to multiples of 2^-11
+// (`quantize_noise`), which half floats hold exactly, so the texels do not depend on how the
+// GPU rounds f32 to f16.
 
 // Uniform parameters, 160 bytes, every field 16-byte aligned so the layout is the same under
 // WGSL's uniform rules and encase. Mirror in Rust:
@@ -69,7 +72,7 @@ struct NoiseParams {
 }
 
 @group(0) @binding(0) var<uniform> params: NoiseParams;
-@group(0) @binding(1) var noise_3d_out: texture_storage_3d<rgba8unorm, write>;
+@group(0) @binding(1) var noise_3d_out: texture_storage_3d<rgba16float, write>;
 @group(0) @binding(2) var noise_2d_out: texture_storage_2d<rgba8unorm, write>;
 @group(0) @binding(3) var downsample_source: texture_3d<f32>;
 
@@ -424,6 +427,15 @@ fn weather_texel(texel: vec2<u32>, size: u32) -> vec4<f32> {
     );
 }
 
+// Steps per unit of the base and detail noise's grid. Rust: `NOISE_LEVELS`.
+const NOISE_LEVELS: f32 = 2048.0;
+
+// A texel rounded to a multiple of 1 / NOISE_LEVELS, clamped to [0, 1]: exactly a half float.
+// Rust: `quantize_noise`.
+fn quantize_noise(value: vec4<f32>) -> vec4<f32> {
+    return floor(saturate(value) * NOISE_LEVELS + 0.5) / NOISE_LEVELS;
+}
+
 // Level 0 of the base texture. Rust: `generate_base`.
 @compute @workgroup_size(4, 4, 4)
 fn generate_base(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -431,7 +443,7 @@ fn generate_base(@builtin(global_invocation_id) id: vec3<u32>) {
     if any(id >= size) {
         return;
     }
-    textureStore(noise_3d_out, id, base_texel(id, size.x));
+    textureStore(noise_3d_out, id, quantize_noise(base_texel(id, size.x)));
 }
 
 // Level 0 of the detail texture. Rust: `generate_detail`.
@@ -441,7 +453,7 @@ fn generate_detail(@builtin(global_invocation_id) id: vec3<u32>) {
     if any(id >= size) {
         return;
     }
-    textureStore(noise_3d_out, id, detail_texel(id, size.x));
+    textureStore(noise_3d_out, id, quantize_noise(detail_texel(id, size.x)));
 }
 
 // The weather noise texture. Rust: `generate_weather`.
@@ -469,5 +481,5 @@ fn downsample_3d(@builtin(global_invocation_id) id: vec3<u32>) {
         let offset = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, corner >> 2u);
         sum += textureLoad(downsample_source, min(2u * id + offset, last), 0);
     }
-    textureStore(noise_3d_out, id, sum / 8.0);
+    textureStore(noise_3d_out, id, quantize_noise(sum / 8.0));
 }
