@@ -928,14 +928,21 @@ pub const OVERCAST_COVERAGE: f64 = 0.9;
 /// two thirds of a patch cloudy at the profile's peak and less toward its ends.
 pub const PATCH_COVERAGE: f64 = 0.25;
 
-/// How much more of the map the cloudy patches cover than the layer's coverage:
-/// `min(1, PATCH_AREA_GAIN · coverage)` of it. The carving inside the patches takes the cloudy
-/// fraction back down, so that it follows the coverage (about 0.2, 0.6 and 0.9 of the sky at
-/// coverage 0.2, 0.5 and 0.8).
+/// How much more of the map the cloudy patches cover than the layer's coverage, up to
+/// [`BROKEN_PATCH_AREA`]. The carving inside the patches takes the cloudy fraction of the sky back
+/// down, so that it follows the coverage.
 pub const PATCH_AREA_GAIN: f64 = 2.5;
 
+/// Most of the map the cloudy patches cover while the layer is broken (below
+/// [`CLOSING_COVERAGE`]). The clear quarter keeps the weather pattern in view at every coverage:
+/// without it the patches merge from coverage 0.4 on and only the shape noise, which repeats
+/// every [`MarchLayer::shape_scale_m`], structures the sky, so its repeats line up along grazing
+/// rays into streaks toward the horizon.
+pub const BROKEN_PATCH_AREA: f64 = 0.75;
+
 /// Layer coverage from which the peak of the local coverage rises from [`PATCH_COVERAGE`] to 1
-/// (reached at coverage 1), so that the heaps merge and the layer closes to overcast.
+/// and the patches spread from [`BROKEN_PATCH_AREA`] to the whole map (both reached at coverage
+/// 1), so that the heaps merge and the layer closes to overcast.
 pub const CLOSING_COVERAGE: f64 = 0.75;
 
 /// Local coverage `κ`, 0–1, from the layer's `coverage` (0–1) and the weather noise's coverage
@@ -943,10 +950,10 @@ pub const CLOSING_COVERAGE: f64 = 0.75;
 /// noise becomes cloud there (seed 002, "Density Model").
 ///
 /// The weather value is stretched over [`WEATHER_COVERAGE_RANGE`] to `w`. Cloudy patches cover
-/// about `min(1, PATCH_AREA_GAIN · coverage)` of the map: the patch field ramps from 0 at
-/// `w = 1 − area` to 1 over [`COVERAGE_EDGE_WIDTH`]. Inside a patch `κ` reaches the peak
-/// [`PATCH_COVERAGE`], rising to 1 from [`CLOSING_COVERAGE`] to coverage 1; above
-/// [`OVERCAST_COVERAGE`] `κ` blends to 1 everywhere. Coverage 0 gives exactly 0 everywhere and
+/// about `area = min(PATCH_AREA_GAIN · coverage, BROKEN_PATCH_AREA)` of the map: the patch field
+/// ramps from 0 at `w = 1 − area` to 1 over [`COVERAGE_EDGE_WIDTH`]. Inside a patch `κ` reaches
+/// the peak [`PATCH_COVERAGE`]. From [`CLOSING_COVERAGE`] to coverage 1 the peak rises to 1 and
+/// the area to the whole map; above [`OVERCAST_COVERAGE`] `κ` blends to 1 everywhere. Coverage 0 gives exactly 0 everywhere and
 /// coverage 1 exactly 1 (overcast). WGSL twin: `local_coverage`.
 pub fn local_coverage(coverage: f64, weather: f64) -> f64 {
     if !is_positive(coverage) {
@@ -954,9 +961,13 @@ pub fn local_coverage(coverage: f64, weather: f64) -> f64 {
     }
     let [low, high] = WEATHER_COVERAGE_RANGE;
     let w = saturate((weather - low) / (high - low));
-    let area = (PATCH_AREA_GAIN * coverage).min(1.0);
-    let field = saturate((w - (1.0 - area)) / COVERAGE_EDGE_WIDTH);
     let closing = saturate((coverage - CLOSING_COVERAGE) / (1.0 - CLOSING_COVERAGE));
+    let area = lerp(
+        (PATCH_AREA_GAIN * coverage).min(BROKEN_PATCH_AREA),
+        1.0,
+        closing,
+    );
+    let field = saturate((w - (1.0 - area)) / COVERAGE_EDGE_WIDTH);
     let peak = lerp(PATCH_COVERAGE, 1.0, closing);
     let overcast = saturate((coverage - OVERCAST_COVERAGE) / (1.0 - OVERCAST_COVERAGE));
     (field * peak).max(overcast)

@@ -229,6 +229,7 @@ const COVERAGE_EDGE_WIDTH: f32 = 0.25;
 const OVERCAST_COVERAGE: f32 = 0.9;
 const PATCH_COVERAGE: f32 = 0.25;
 const PATCH_AREA_GAIN: f32 = 2.5;
+const BROKEN_PATCH_AREA: f32 = 0.75;
 const CLOSING_COVERAGE: f32 = 0.75;
 // Below this optical thickness `mean_step_transmittance` uses its series (Rust: SERIES_LIMIT,
 // 1e-5 there because f64 has expm1).
@@ -420,17 +421,18 @@ fn profile_density(layer: CloudLayerGpu, height_fraction: f32) -> f32 {
 }
 
 // Local coverage from the layer coverage and the weather channel: patches over
-// min(1, PATCH_AREA_GAIN * coverage) of the map, PATCH_COVERAGE in their middle (rising to 1
-// from CLOSING_COVERAGE), 0 everywhere at coverage 0, 1 everywhere at coverage 1.
+// min(PATCH_AREA_GAIN * coverage, BROKEN_PATCH_AREA) of the map, PATCH_COVERAGE in their middle
+// (both rising to 1 from CLOSING_COVERAGE), 0 everywhere at coverage 0, 1 everywhere at
+// coverage 1.
 // Rust: `local_coverage`.
 fn local_coverage(coverage: f32, weather: f32) -> f32 {
     if !(coverage > 0.0) {
         return 0.0;
     }
     let w = saturate((weather - WEATHER_COVERAGE_RANGE.x) / (WEATHER_COVERAGE_RANGE.y - WEATHER_COVERAGE_RANGE.x));
-    let area = min(PATCH_AREA_GAIN * coverage, 1.0);
-    let field = saturate((w - (1.0 - area)) / COVERAGE_EDGE_WIDTH);
     let closing = saturate((coverage - CLOSING_COVERAGE) / (1.0 - CLOSING_COVERAGE));
+    let area = mix(min(PATCH_AREA_GAIN * coverage, BROKEN_PATCH_AREA), 1.0, closing);
+    let field = saturate((w - (1.0 - area)) / COVERAGE_EDGE_WIDTH);
     let peak = mix(PATCH_COVERAGE, 1.0, closing);
     let overcast = saturate((coverage - OVERCAST_COVERAGE) / (1.0 - OVERCAST_COVERAGE));
     return max(field * peak, overcast);
