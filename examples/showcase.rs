@@ -1,11 +1,12 @@
 //! Renders the showcase cloud scenes under Bevy's atmosphere to PNG, with no window.
 //!
 //! ```text
-//! cargo run --release --example showcase -- [--width W] [--height H] [--out DIR]
+//! cargo run --release --example showcase -- [--width W] [--height H] [--frames N] [--out DIR]
 //! ```
 //!
 //! Writes `DIR/SCENE.png` (default `showcase/`, 1280×720) for the scenes of the `bench` example
-//! plus a view of cumulus from above the layer, with the `HIGH` preset.
+//! plus a view of cumulus from above the layer, with the `HIGH` preset, after `N` frames of each
+//! scene (default 24), over which the temporal accumulation averages the jittered frames.
 
 mod common;
 
@@ -18,31 +19,42 @@ use common::{
     scenes::{Scene, showcase_scenes},
 };
 
-fn parse_args() -> Result<(UVec2, PathBuf), String> {
-    let usage = "usage: showcase [--width W] [--height H] [--out DIR]";
-    let (mut size, mut out) = (UVec2::new(1280, 720), PathBuf::from("showcase"));
+/// What to render: the image size, the frames per scene and where to write.
+struct Args {
+    size: UVec2,
+    frames: u32,
+    out: PathBuf,
+}
+
+fn parse_args() -> Result<Args, String> {
+    let usage = "usage: showcase [--width W] [--height H] [--frames N] [--out DIR]";
+    let mut args = Args {
+        size: UVec2::new(1280, 720),
+        frames: 24,
+        out: PathBuf::from("showcase"),
+    };
     let mut it = std::env::args().skip(1);
     while let Some(arg) = it.next() {
         let mut value = || it.next().ok_or(format!("{arg} needs a value ({usage})"));
         match arg.as_str() {
-            "--width" | "--height" => {
+            "--width" | "--height" | "--frames" => {
                 let text = value()?;
                 let n: u32 = text
                     .parse()
                     .ok()
                     .filter(|n| *n > 0)
                     .ok_or(format!("{arg}: {text:?} is not a positive whole number"))?;
-                if arg == "--width" {
-                    size.x = n;
-                } else {
-                    size.y = n;
+                match arg.as_str() {
+                    "--width" => args.size.x = n,
+                    "--height" => args.size.y = n,
+                    _ => args.frames = n,
                 }
             }
-            "--out" => out = value()?.into(),
+            "--out" => args.out = value()?.into(),
             other => return Err(format!("unknown argument {other:?} ({usage})")),
         }
     }
-    Ok((size, out))
+    Ok(args)
 }
 
 fn scenes() -> Vec<Scene> {
@@ -58,7 +70,8 @@ fn scenes() -> Vec<Scene> {
     scenes
 }
 
-fn run(size: UVec2, out: &std::path::Path) -> Result<(), String> {
+fn run(args: &Args) -> Result<(), String> {
+    let (size, out) = (args.size, args.out.as_path());
     std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
     let mut app = Headless::new(size, TextureFormat::Rgba8UnormSrgb, |app| {
         app.add_plugins(CloudscapePlugin)
@@ -82,7 +95,7 @@ fn run(size: UVec2, out: &std::path::Path) -> Result<(), String> {
     };
     for scene in scenes() {
         scene.apply(app.world(), camera, sun);
-        app.run_frames(4);
+        app.run_frames(args.frames);
         let pixels = app.read_target();
         let path = out.join(format!("{}.png", scene.name));
         pixels.save_png(&path, 1.0);
@@ -92,7 +105,7 @@ fn run(size: UVec2, out: &std::path::Path) -> Result<(), String> {
 }
 
 fn main() -> ExitCode {
-    match parse_args().and_then(|(size, out)| run(size, &out)) {
+    match parse_args().and_then(|args| run(&args)) {
         Ok(()) => ExitCode::SUCCESS,
         Err(message) => {
             eprintln!("showcase: {message}");

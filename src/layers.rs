@@ -20,7 +20,8 @@
 //!   ([`DensityProfile::bake`] does that here). The curve is data, not a formula, so it can be
 //!   edited. [`CloudLayer::coverage_height`] lets the weather's local coverage set how far up
 //!   the layer each cloud reaches, so heaps come down toward the edge of their cloudy patch
-//!   instead of standing as walls there.
+//!   instead of standing as walls there. Inside the patches of a broken layer the base shape
+//!   noise carves separate heaps ([`crate::reference::render::local_coverage`]).
 //! - **How it moves**: [`CloudLayer::wind_m_s`] scrolls the layer's noise and weather map.
 //!   [`CloudLayer::skew`] leans the clouds downwind with height. This is seed 002's "Wind and
 //!   Skew": skew "only displaces the weather map texture and the amount displaced increases with
@@ -582,9 +583,9 @@ pub struct CloudLayer {
     /// [`DensityProfile::for_kind`].
     pub profile: DensityProfile,
     /// How much the weather's local coverage sets the clouds' height, 0–1 (dimensionless).
-    /// Where the weather pattern gives a local coverage `κ` (1 in the middle of a cloudy patch,
-    /// falling to 0 at its edge), the profile is stretched over `1 − s · (1 − κ)²` of the
-    /// layer's thickness. At 1 a cloud's top comes down toward its edges, so heaps round into
+    /// Where the weather pattern fills a cloudy patch to `f` (1 in the middle of the patch,
+    /// falling to 0 at its edge; [`crate::reference::render::patch_fill`]), the profile is
+    /// stretched over `1 − s · (1 − f)²` of the layer's thickness. At 1 a cloud's top comes down toward its edges, so heaps round into
     /// domes; at 0 every cloud reaches the layer's top and stands as a wall where the coverage
     /// ends. Default: the kind's (cumulus 1; stratocumulus, altocumulus, cirrocumulus and
     /// cumulonimbus 0.5; sheets and cirrus 0).

@@ -323,7 +323,8 @@ pub struct MarchLayer {
     /// [`PRECIPITATION_ABSORPTION`]. Default 0.
     pub precipitation: f64,
     /// How much the local coverage `κ` sets the clouds' height, 0–1 (dimensionless): the
-    /// profile is read at the height fraction over [`coverage_height_scale`], so where the
+    /// profile is read at the height fraction over [`coverage_height_scale`] of the patch fill
+    /// ([`patch_fill`]), so where the
     /// weather thins out toward a cloud's edge its top comes down, and the cloud rounds into a
     /// dome instead of standing as a wall at the edge of the coverage. 0: every cloud reaches
     /// the layer's top. Values outside 0–1 are clamped, NaN reads 0. Default 0.
@@ -1051,19 +1052,20 @@ pub fn weather_coverage(
     kappa
 }
 
-/// The fraction of the layer's thickness the profile is stretched over where the local coverage
-/// is `κ` (0–1), for [`MarchLayer::coverage_height`] `s`: `1 − s · (1 − κ)²`. 1 at full coverage
-/// or `s = 0`. At `s = 1` it is `κ (2 − κ)`: a cloud's top falls steeply at the edge of its
-/// coverage and levels off toward the middle, a rounded dome rather than the cone a linear
-/// `κ` would give (half coverage reaches three quarters of the way up). Never below `κ`, so
-/// positive wherever `κ` is. WGSL twin: `coverage_height_scale`.
-pub fn coverage_height_scale(coverage_height: f64, kappa: f64) -> f64 {
+/// The fraction of the layer's thickness the profile is stretched over where a cloudy patch is
+/// filled to `f` (0–1, the [`patch_fill`] of the local coverage), for
+/// [`MarchLayer::coverage_height`] `s`: `1 − s · (1 − f)²`. 1 in a full patch or at `s = 0`. At
+/// `s = 1` it is `f (2 − f)`: a cloud's top falls steeply at the edge of its patch and levels
+/// off toward the middle, a rounded dome rather than the cone a linear `f` would give (a half
+/// full patch reaches three quarters of the way up). Never below `f`, so positive wherever `f`
+/// is. WGSL twin: `coverage_height_scale`.
+pub fn coverage_height_scale(coverage_height: f64, fill: f64) -> f64 {
     let s = if coverage_height.is_nan() {
         0.0
     } else {
         coverage_height.clamp(0.0, 1.0)
     };
-    let gap = 1.0 - kappa;
+    let gap = 1.0 - fill;
     1.0 - s * gap * gap
 }
 

@@ -443,15 +443,15 @@ fn patch_fill(kappa: f32) -> f32 {
     return saturate(kappa / PATCH_COVERAGE);
 }
 
-// How far the profile is stretched up the layer where the local coverage is `kappa`:
-// 1 - s * (1 - kappa)^2, with s the layer's coverage height clamped to 0-1 (NaN: 0). Rust:
+// How far the profile is stretched up the layer where a patch is filled to `fill`:
+// 1 - s * (1 - fill)^2, with s the layer's coverage height clamped to 0-1 (NaN: 0). Rust:
 // `coverage_height_scale`.
-fn coverage_height_scale(coverage_height: f32, kappa: f32) -> f32 {
+fn coverage_height_scale(coverage_height: f32, fill: f32) -> f32 {
     var s = 0.0;
     if coverage_height > 0.0 {
         s = min(coverage_height, 1.0);
     }
-    let gap = 1.0 - kappa;
+    let gap = 1.0 - fill;
     return 1.0 - s * gap * gap;
 }
 
