@@ -18,7 +18,7 @@ use bevy_cloudscape::{
     reference::noise::{NoiseRecipe, mip_level_count, mip_size, quantize_unorm8},
     render::noise::{CloudNoisePlugin, CloudNoiseSettings, CloudNoiseTextures},
 };
-use common::headless::{Headless, f16_to_f32};
+use common::headless::{Headless, rgba16float_texels};
 
 struct Args {
     out: PathBuf,
@@ -65,11 +65,11 @@ fn write_tiled(path: &Path, rgba: &[u8], size: u32, channel: usize) -> Result<()
         .map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
-/// `Rgba16Float` texels (8 bytes each, as the base and detail noise are stored) as RGBA8.
+/// `Rgba16Float` texels (as the base and detail noise are stored) as RGBA8.
 fn half_floats_to_rgba8(bytes: &[u8]) -> Vec<u8> {
-    bytes
-        .chunks_exact(2)
-        .map(|h| quantize_unorm8(f64::from(f16_to_f32(u16::from_le_bytes([h[0], h[1]])))))
+    rgba16float_texels(bytes)
+        .into_iter()
+        .flat_map(|t| t.map(|v| quantize_unorm8(f64::from(v))))
         .collect()
 }
 

@@ -585,10 +585,10 @@ pub struct CloudLayer {
     /// How much the weather's local coverage sets the clouds' height, 0–1 (dimensionless).
     /// Where the weather pattern fills a cloudy patch to `f` (1 in the middle of the patch,
     /// falling to 0 at its edge; [`crate::reference::render::patch_fill`]), the profile is
-    /// stretched over `1 − s · (1 − f)²` of the layer's thickness. At 1 a cloud's top comes down toward its edges, so heaps round into
-    /// domes; at 0 every cloud reaches the layer's top and stands as a wall where the coverage
-    /// ends. Default: the kind's (cumulus 1; stratocumulus, altocumulus, cirrocumulus and
-    /// cumulonimbus 0.5; sheets and cirrus 0).
+    /// stretched over `1 − s · (1 − f)²` of the layer's thickness. At 1 a cloud's top comes down
+    /// toward its edges, so heaps round into domes; at 0 every cloud reaches the layer's top and
+    /// stands as a wall where the patch ends. Default: the kind's (cumulus 1; stratocumulus,
+    /// altocumulus, cirrocumulus and cumulonimbus 0.5; sheets and cirrus 0).
     pub coverage_height: f32,
     /// Period of the layer's 2D weather noise, metres: the horizontal size of the pattern of
     /// clouds and gaps (> 0). Default: the kind's, e.g. 12 000 m for cumulus.

@@ -97,6 +97,14 @@ fn linear_to_srgb(v: f32) -> f32 {
     }
 }
 
+/// `Rgba16Float` texels (8 bytes each: four little-endian half floats) as RGBA values.
+pub fn rgba16float_texels(bytes: &[u8]) -> Vec<[f32; 4]> {
+    bytes
+        .chunks_exact(8)
+        .map(|t| std::array::from_fn(|c| f16_to_f32(u16::from_le_bytes([t[2 * c], t[2 * c + 1]]))))
+        .collect()
+}
+
 /// IEEE 754 binary16 to f32 (the HDR target is `Rgba16Float`).
 pub fn f16_to_f32(bits: u16) -> f32 {
     let sign = if bits & 0x8000 != 0 { -1.0 } else { 1.0 };
@@ -280,14 +288,7 @@ impl Headless {
         let target = self.target.clone();
         let (format, bytes) = self.read_image(&target, 0);
         let rgba = match format {
-            TextureFormat::Rgba16Float => bytes
-                .chunks_exact(8)
-                .map(|p| {
-                    std::array::from_fn(|c| {
-                        f16_to_f32(u16::from_le_bytes([p[2 * c], p[2 * c + 1]]))
-                    })
-                })
-                .collect(),
+            TextureFormat::Rgba16Float => rgba16float_texels(&bytes),
             TextureFormat::Rgba32Float => bytes
                 .chunks_exact(16)
                 .map(|p| {

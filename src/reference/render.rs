@@ -57,8 +57,8 @@
 //! [`CloudTextures`] holds exactly the texels the GPU samples: the base and detail noise of
 //! [`super::noise`] rounded to multiples of `2^-11` and stored as half floats (`Rgba16Float`,
 //! [`super::noise::quantize_noise`]), with mip levels box-filtered from the rounded level above
-//! and rounded again, and the weather noise quantised to `Rgba8Unorm` bytes.
-//! Sampling is trilinear with repeat addressing and linear mip interpolation, texel centres at
+//! and rounded again, and the weather noise quantised to `Rgba8Unorm` bytes. Sampling is
+//! trilinear with repeat addressing and linear mip interpolation, texel centres at
 //! `(i + 0.5) / n`, as a `linear`/`linear`/`linear`, `repeat` sampler does. The only differences
 //! from the GPU are then f32 against f64 and the GPU's filtering precision.
 //!
@@ -324,9 +324,9 @@ pub struct MarchLayer {
     pub precipitation: f64,
     /// How much the local coverage `κ` sets the clouds' height, 0–1 (dimensionless): the
     /// profile is read at the height fraction over [`coverage_height_scale`] of the patch fill
-    /// ([`patch_fill`]), so where the
-    /// weather thins out toward a cloud's edge its top comes down, and the cloud rounds into a
-    /// dome instead of standing as a wall at the edge of the coverage. 0: every cloud reaches
+    /// ([`patch_fill`]), so where the weather thins out toward a cloud's edge its top comes
+    /// down, and the cloud rounds into a dome instead of standing as a wall at the edge of the
+    /// coverage. 0: every cloud reaches
     /// the layer's top. Values outside 0–1 are clamped, NaN reads 0. Default 0.
     pub coverage_height: f64,
     /// Offset added to horizontal positions before the weather look-up, metres. The CPU
@@ -954,8 +954,9 @@ pub const CLOSING_COVERAGE: f64 = 0.75;
 /// about `area = min(PATCH_AREA_GAIN · coverage, BROKEN_PATCH_AREA)` of the map: the patch field
 /// ramps from 0 at `w = 1 − area` to 1 over [`COVERAGE_EDGE_WIDTH`]. Inside a patch `κ` reaches
 /// the peak [`PATCH_COVERAGE`]. From [`CLOSING_COVERAGE`] to coverage 1 the peak rises to 1 and
-/// the area to the whole map; above [`OVERCAST_COVERAGE`] `κ` blends to 1 everywhere. Coverage 0 gives exactly 0 everywhere and
-/// coverage 1 exactly 1 (overcast). WGSL twin: `local_coverage`.
+/// the area to the whole map; above [`OVERCAST_COVERAGE`] `κ` blends to 1 everywhere. Coverage
+/// 0 gives exactly 0 everywhere and coverage 1 exactly 1 (overcast). WGSL twin:
+/// `local_coverage`.
 pub fn local_coverage(coverage: f64, weather: f64) -> f64 {
     if !is_positive(coverage) {
         return 0.0;
@@ -1113,10 +1114,10 @@ pub fn texture_lod(footprint_m: f64, texel_m: f64) -> f64 {
 ///
 /// Seed 002's model ("Density Model"; Schneider 2015): the profile at the height fraction times
 /// the base shape, remapped by the local coverage `κ` as `saturate(remap(shape · profile, 1 − κ,
-/// 1, 0, 1)) · fill`, with `fill` the [`patch_fill`] of `κ`, then eroded by the detail, `saturate(remap(d, erosion, 1, 0, 1))`. The shape
-/// and the erosion are blended in by [`MarchLayer::shape_strength`]; at 0 there is no noise and a
-/// layer of coverage 1 is exactly its profile. Coverage 0 returns exactly 0. WGSL twin:
-/// `layer_density`.
+/// 1, 0, 1)) · fill`, with `fill` the [`patch_fill`] of `κ`, then eroded by the detail,
+/// `saturate(remap(d, erosion, 1, 0, 1))`. The shape and the erosion are blended in by
+/// [`MarchLayer::shape_strength`]; at 0 there is no noise and a layer of coverage 1 is exactly
+/// its profile. Coverage 0 returns exactly 0. WGSL twin: `layer_density`.
 pub fn layer_density(
     textures: &CloudTextures,
     layer: &MarchLayer,
@@ -2734,9 +2735,15 @@ mod tests {
             .map(|t| t.map(|v| quantize_noise(v) as f32))
             .collect();
         assert_eq!(level1, &expected);
-        // Every texel of every level lies on the grid of 2^-11.
-        for v in base.levels.iter().flatten().flatten() {
-            assert_eq!((v * 2048.0).fract(), 0.0, "{v} is off the grid");
+        // Every texel of every level lies on the grid the GPU stores.
+        for v in base
+            .levels
+            .iter()
+            .flatten()
+            .flatten()
+            .map(|v| f64::from(*v))
+        {
+            assert_eq!(quantize_noise(v), v, "{v} is off the grid");
         }
         // Halfway between two texel centres of the weather texture: their mean.
         let weather = &textures().weather;

@@ -1,12 +1,16 @@
 //! The noise compute pass against the f64 CPU reference, read back from the GPU.
 
-use bevy::{prelude::*, render::render_resource::TextureFormat};
+use bevy::{
+    prelude::*,
+    render::render_resource::{Texture, TextureFormat},
+};
 use bevy_cloudscape::{
     reference::noise::{self, NoiseRecipe},
     render::noise::{CloudNoisePlugin, CloudNoiseSettings, CloudNoiseTextures},
 };
 
-use crate::harness::{Headless, f16_to_f32};
+use crate::common::headless::rgba16float_texels;
+use crate::harness::Headless;
 
 /// The default recipe at test sizes (the full 128³ takes seconds on lavapipe).
 fn small_recipe(seed: u32) -> NoiseRecipe {
@@ -33,32 +37,35 @@ fn textures(app: &mut Headless) -> CloudNoiseTextures {
         .clone()
 }
 
-/// A texture read back as values: `Rgba16Float` (8 bytes a texel) or `Rgba8Unorm` (4 bytes),
-/// told apart by the byte count of `texels` texels.
-fn decode(bytes: &[u8], texels: usize) -> Vec<[f64; 4]> {
-    match bytes.len() / texels {
-        8 => bytes
-            .chunks_exact(8)
-            .map(|t| {
-                std::array::from_fn(|c| {
-                    f64::from(f16_to_f32(u16::from_le_bytes([t[2 * c], t[2 * c + 1]])))
-                })
-            })
-            .collect(),
-        4 => bytes
-            .chunks_exact(4)
-            .map(|t| std::array::from_fn(|c| f64::from(t[c]) / 255.0))
-            .collect(),
-        other => panic!("unexpected {other} bytes a texel"),
-    }
-}
-
-/// How a texture stores the noise: the base and detail on the grid of `quantize_noise`, the
-/// weather as bytes.
+/// How a texture stores the noise: the base and detail on the grid of `quantize_noise` in half
+/// floats, the weather as bytes.
 #[derive(Clone, Copy)]
 enum Storage {
     Grid,
     Bytes,
+}
+
+/// Level `level` of a noise texture read back: how the texture stores values (from its format),
+/// and the values.
+fn read(app: &mut Headless, texture: &Texture, level: u32) -> (Storage, Vec<[f64; 4]>) {
+    let bytes = app.read_texture(texture, level);
+    match texture.format() {
+        TextureFormat::Rgba16Float => (
+            Storage::Grid,
+            rgba16float_texels(&bytes)
+                .into_iter()
+                .map(|t| t.map(f64::from))
+                .collect(),
+        ),
+        TextureFormat::Rgba8Unorm => (
+            Storage::Bytes,
+            bytes
+                .chunks_exact(4)
+                .map(|t| std::array::from_fn(|c| f64::from(t[c]) / 255.0))
+                .collect(),
+        ),
+        other => panic!("unexpected noise format {other:?}"),
+    }
 }
 
 impl Storage {
@@ -147,19 +154,15 @@ fn gpu_noise_matches_reference_and_tiles() {
     let tex = textures(&mut app);
     assert_eq!(tex.generation, 1, "generated exactly once");
 
-    let base = decode(&app.read_texture(&tex.base.texture, 0), 32 * 32 * 32);
-    let detail = decode(&app.read_texture(&tex.detail.texture, 0), 16 * 16 * 16);
-    let weather = decode(&app.read_texture(&tex.weather.texture, 0), 64 * 64);
-    let grid = Storage::Grid;
-    assert_matches("base", &base, &noise::generate_base(&recipe, 32), grid);
-    assert_matches(
-        "detail",
-        &detail,
-        &noise::generate_detail(&recipe, 16),
-        grid,
-    );
+    let (base_storage, base) = read(&mut app, &tex.base.texture, 0);
+    let (detail_storage, detail) = read(&mut app, &tex.detail.texture, 0);
+    let (weather_storage, weather) = read(&mut app, &tex.weather.texture, 0);
+    let base_reference = noise::generate_base(&recipe, 32);
+    assert_matches("base", &base, &base_reference, base_storage);
+    let detail_reference = noise::generate_detail(&recipe, 16);
+    assert_matches("detail", &detail, &detail_reference, detail_storage);
     let weather_reference = noise::generate_weather(&recipe, 64);
-    assert_matches("weather", &weather, &weather_reference, Storage::Bytes);
+    assert_matches("weather", &weather, &weather_reference, weather_storage);
 
     // Seamless: the step across the wrap is no bigger than steps inside the texture.
     for (name, values, n) in [("base", &base, 32), ("detail", &detail, 16)] {
@@ -198,10 +201,9 @@ fn gpu_noise_matches_reference_and_tiles() {
         let mut previous = level0.clone();
         let mut previous_size = size;
         for level in 1..noise::mip_level_count(size) {
-            let side = noise::mip_size(previous_size) as usize;
-            let values = decode(&app.read_texture(texture, level), side * side * side);
+            let (storage, values) = read(&mut app, texture, level);
             let expected = noise::downsample_3d(&previous, previous_size);
-            let (_, worst, _) = compare(&values, &expected, grid);
+            let (_, worst, _) = compare(&values, &expected, storage);
             assert!(
                 worst <= 1.0 + 1e-9,
                 "{name} mip {level}: {worst} steps from the box filter"

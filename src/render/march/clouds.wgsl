@@ -423,8 +423,7 @@ fn profile_density(layer: CloudLayerGpu, height_fraction: f32) -> f32 {
 // Local coverage from the layer coverage and the weather channel: patches over
 // min(PATCH_AREA_GAIN * coverage, BROKEN_PATCH_AREA) of the map, PATCH_COVERAGE in their middle
 // (both rising to 1 from CLOSING_COVERAGE), 0 everywhere at coverage 0, 1 everywhere at
-// coverage 1.
-// Rust: `local_coverage`.
+// coverage 1. Rust: `local_coverage`.
 fn local_coverage(coverage: f32, weather: f32) -> f32 {
     if !(coverage > 0.0) {
         return 0.0;

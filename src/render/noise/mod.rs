@@ -21,8 +21,8 @@
 //! # Cost
 //!
 //! The default textures take 19.47 MB of GPU memory with mips (base 19.17 MB, detail 0.30 MB,
-//! at 8 bytes a texel) plus 0.26 MB for the weather noise. Generation is a one-off; on lavapipe (software Vulkan on two
-//! CPU cores) it takes about 3 s.
+//! at 8 bytes a texel) plus 0.26 MB for the weather noise. Generation is a one-off; on lavapipe
+//! (software Vulkan on two CPU cores) it takes about 3 s.
 //!
 //! # Platform limits
 //!
@@ -118,8 +118,11 @@ fn check_device(world: &World) -> Result<(), String> {
 ///
 /// The coverage and erosion remaps multiply small differences in the filtered noise many times
 /// over, and filtering `Rgba8Unorm` is not exact on every GPU (lavapipe filters it in 8-bit fixed
-/// point and rounds the result to 1/255). Half floats hold the noise eight times finer than
-/// bytes and are filtered in float, so the march and its CPU twin sample the same values.
+/// point and rounds the result to 1/255). Half floats are filtered in float. The shader rounds
+/// each value to a multiple of `2^-11` before it writes
+/// ([`crate::reference::noise::quantize_noise`]), eight times finer than bytes and exactly a half
+/// float, so the stored texels do not depend on how the GPU converts f32 to f16 and the march
+/// and its CPU twin sample the same values.
 pub const NOISE_3D_FORMAT: TextureFormat = TextureFormat::Rgba16Float;
 
 /// Texel format of the weather noise. The march filters the weather noise itself from texel
