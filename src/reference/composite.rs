@@ -25,6 +25,21 @@
 //! anti-aliasing; Karis 2014, "High Quality Temporal Supersampling"). A pixel whose history falls
 //! outside last frame's view takes the new frame alone.
 //!
+//! # Temporal upsampling
+//!
+//! A march at a reduced resolution (each texel standing for `k × k` full-resolution pixels,
+//! [`upsampling_factor`]) that accumulates frames would converge to the bilinear upsample of its
+//! texels, which blurs everything finer than a texel. Instead each frame's rays go through the
+//! centre of another of the `k × k` pixels of their texel ([`sample_offset`]), and the new
+//! frame is blended only into the pixel its ray went through ([`hit_proximity`]), with the
+//! weight [`hit_blend`] that makes a pixel visited every `k²` frames forget its history as fast
+//! as one blended every frame. The pixels no ray went through keep their history, unclamped
+//! ([`temporal_upsample_resolve`]). A still view then converges to the full-resolution image: the
+//! unit test `temporal_upsampling_converges_to_the_full_resolution_image` measures 0.007 RMS
+//! error on structure finer than a texel, against 0.20 for rays through the texels' centres.
+//! Schneider 2015 reconstructs the clouds of Horizon Zero Dawn the same way, marching one pixel
+//! of each 4 × 4 block per frame.
+//!
 //! WGSL twin: `src/render/composite/composite.wgsl` and `temporal.wgsl`.
 //!
 //! [`resolution_scale`]: crate::render::VolumetricClouds::resolution_scale
@@ -113,8 +128,23 @@ pub fn upsample_weights(bilinear: [f64; 4], taps_m: [f64; 4], pixel_m: f64) -> [
 /// the image) blended with [`upsample_weights`]. WGSL twin: the callers of `upsample_weights`
 /// (`upsample.wgsl`, `temporal.wgsl`, `upsampled_shafts` in `march.wgsl`).
 pub fn upsample<const N: usize>(image: &LowResImage<N>, uv: [f64; 2], distance_m: f64) -> [f64; N] {
+    upsample_offset(image, uv, distance_m, [0.0; 2])
+}
+
+/// [`upsample`] of an image whose texels were sampled `offset` texels from their centres
+/// ([`sample_offset`]): the bilinear weights are those of the points actually sampled. WGSL
+/// twin: `footprint_offset` and its callers in `temporal.wgsl`.
+pub fn upsample_offset<const N: usize>(
+    image: &LowResImage<N>,
+    uv: [f64; 2],
+    distance_m: f64,
+    offset: [f64; 2],
+) -> [f64; N] {
     let [width, height] = image.size.map(|s| s.max(1) as i64);
-    let position = [uv[0] * width as f64 - 0.5, uv[1] * height as f64 - 0.5];
+    let position = [
+        uv[0] * width as f64 - 0.5 - offset[0],
+        uv[1] * height as f64 - 0.5 - offset[1],
+    ];
     let base = position.map(f64::floor);
     let fraction = [position[0] - base[0], position[1] - base[1]];
     // Texel k is base + (k & 1, k >> 1), as the WGSL `footprint_texel`.
@@ -139,6 +169,67 @@ pub fn upsample<const N: usize>(image: &LowResImage<N>, uv: [f64; 2], distance_m
             .map(|k| weights[k] * image.values[texels[k]][c])
             .sum()
     })
+}
+
+/// Largest [`upsampling_factor`]: a march at an eighth of the resolution per axis.
+pub const MAX_UPSAMPLING_FACTOR: u32 = 8;
+
+/// Full-resolution pixels per reduced-resolution texel along an axis, rounded, 1 to
+/// [`MAX_UPSAMPLING_FACTOR`]: the side `k` of the `k × k` pixels one texel stands for, for an
+/// image of `full` pixels marched at `low` texels (`[width, height]`; the larger ratio of the
+/// two axes). 1 at full resolution. WGSL: computed on the CPU into the uniforms.
+pub fn upsampling_factor(full: [u32; 2], low: [u32; 2]) -> u32 {
+    let ratio = (0..2)
+        .map(|a| f64::from(full[a].max(1)) / f64::from(low[a].max(1)))
+        .fold(1.0, f64::max);
+    (ratio.round() as u32).clamp(1, MAX_UPSAMPLING_FACTOR)
+}
+
+/// Where this frame's reduced-resolution rays pass through their texels with the temporal
+/// upsampling, in texels from the texel's centre (each component in `(−0.5, 0.5)`): the centre
+/// of one of the `k × k` full-resolution pixels the texel stands for (`k` =
+/// [`upsampling_factor`]), cell `c = frame mod k²`, column `c mod k`, row `(⌊c / k⌋ + c) mod k`.
+/// Every cell comes once in `k²` frames, the first `k` along a diagonal, so consecutive frames
+/// sample far apart. `[0, 0]` for `k = 1`. WGSL: computed on the CPU into the uniforms.
+pub fn sample_offset(frame: u32, factor: u32) -> [f64; 2] {
+    let k = factor.clamp(1, MAX_UPSAMPLING_FACTOR);
+    let cell = frame % (k * k);
+    let (column, row) = (cell % k, (cell / k + cell) % k);
+    [column, row].map(|i| (f64::from(i) + 0.5) / f64::from(k) - 0.5)
+}
+
+/// The weight of the new frame for a pixel whose ray this frame's march passed through, so
+/// that each pixel, visited once in `k²` frames, forgets its history as fast as with `alpha`
+/// every frame: `1 − (1 − α)^(k²)`. `alpha` itself for `k = 1` (NaN: 1). WGSL: computed on the
+/// CPU into `TemporalUniforms::hit_blend`.
+pub fn hit_blend(alpha: f64, factor: u32) -> f64 {
+    let alpha = if alpha.is_nan() {
+        1.0
+    } else {
+        alpha.clamp(0.0, 1.0)
+    };
+    match factor.clamp(1, MAX_UPSAMPLING_FACTOR) {
+        1 => alpha,
+        k => 1.0 - (1.0 - alpha).powi((k * k) as i32),
+    }
+}
+
+/// How closely this frame's ray passed through the full-resolution pixel centred on `uv`:
+/// `Π max(0, 1 − |d|)` over the axes, with `d` the distance in full-resolution pixels from the
+/// pixel's centre to the sample of the texel holding it (its centre plus `offset` texels,
+/// [`sample_offset`]). 1 for the pixel the ray went through, 0 for its neighbours when the
+/// resolutions divide evenly. `full` and `low` are the two images' sizes. WGSL twin: the end
+/// of `temporal.wgsl`.
+pub fn hit_proximity(uv: [f64; 2], full: [u32; 2], low: [u32; 2], offset: [f64; 2]) -> f64 {
+    (0..2)
+        .map(|a| {
+            let n = f64::from(low[a].max(1));
+            let texel = (uv[a] * n).floor().clamp(0.0, n - 1.0);
+            let sample = (texel + 0.5 + offset[a]) / n;
+            let distance = (uv[a] - sample) * f64::from(full[a].max(1));
+            (1.0 - distance.abs()).max(0.0)
+        })
+        .product()
 }
 
 /// Where the content of a pixel was in last frame's image, as `uv` (0–1, origin top left), or
@@ -185,17 +276,34 @@ pub fn temporal_resolve<const N: usize>(
     history: Option<[f64; N]>,
     alpha: f64,
 ) -> [f64; N] {
+    temporal_upsample_resolve(current, lo, hi, history, alpha, 1.0)
+}
+
+/// [`temporal_resolve`] for the temporal upsampling, where this frame's march passed through
+/// the pixel with [`hit_proximity`] `proximity` (0–1): the clamp and the blend weight `alpha`
+/// (the [`hit_blend`]) both apply in proportion to it. A pixel the march did not sample this
+/// frame keeps its history: the new frame holds only an interpolation between other pixels
+/// there, and fine structure finer than a texel lies outside its neighbourhood's range, so
+/// clamping to it would blur what earlier frames resolved. WGSL twin: the end of
+/// `temporal.wgsl`.
+pub fn temporal_upsample_resolve<const N: usize>(
+    current: [f64; N],
+    lo: [f64; N],
+    hi: [f64; N],
+    history: Option<[f64; N]>,
+    alpha: f64,
+    proximity: f64,
+) -> [f64; N] {
     let Some(history) = history else {
         return current;
     };
-    let alpha = if alpha.is_nan() {
-        1.0
-    } else {
-        alpha.clamp(0.0, 1.0)
-    };
+    let unit = |x: f64| if x.is_nan() { 1.0 } else { x.clamp(0.0, 1.0) };
+    let (alpha, proximity) = (unit(alpha), unit(proximity));
     std::array::from_fn(|c| {
         let clamped = history[c].max(lo[c]).min(hi[c]);
-        clamped * (1.0 - alpha) + current[c] * alpha
+        let kept = history[c] + (clamped - history[c]) * proximity;
+        let weight = alpha * proximity;
+        kept * (1.0 - weight) + current[c] * weight
     })
 }
 
@@ -324,6 +432,142 @@ mod tests {
             temporal_resolve([0.3], [0.0], [1.0], Some([0.9]), f64::NAN),
             [0.3]
         );
+    }
+
+    #[test]
+    fn every_pixel_of_a_texel_is_sampled_once_per_cycle() {
+        assert_eq!(upsampling_factor([160, 90], [80, 45]), 2);
+        assert_eq!(upsampling_factor([161, 91], [81, 46]), 2);
+        assert_eq!(upsampling_factor([160, 90], [160, 90]), 1);
+        assert_eq!(upsampling_factor([160, 90], [40, 23]), 4);
+        assert_eq!(upsampling_factor([0, 0], [0, 0]), 1);
+        assert_eq!(
+            upsampling_factor([100_000, 1], [1, 1]),
+            MAX_UPSAMPLING_FACTOR
+        );
+        assert_eq!(sample_offset(7, 1), [0.0, 0.0]);
+        // At half resolution the rays go through the four pixel centres of their texel, a
+        // quarter texel from its centre, diagonal first.
+        let cycle: Vec<[f64; 2]> = (0..4).map(|f| sample_offset(f, 2)).collect();
+        assert_eq!(
+            cycle,
+            [[-0.25, -0.25], [0.25, 0.25], [-0.25, 0.25], [0.25, -0.25]]
+        );
+        assert_eq!(sample_offset(4, 2), sample_offset(0, 2));
+        // For each factor, each of a texel's k² pixels is hit (proximity 1) in exactly one frame
+        // of the k² of a cycle, and no frame leaves a weight on another pixel.
+        for k in 1..=4_u32 {
+            let low = [5, 3];
+            let full = [5 * k, 3 * k];
+            for py in 0..full[1] {
+                for px in 0..full[0] {
+                    let uv = [
+                        (f64::from(px) + 0.5) / f64::from(full[0]),
+                        (f64::from(py) + 0.5) / f64::from(full[1]),
+                    ];
+                    let weights: Vec<f64> = (0..k * k)
+                        .map(|f| hit_proximity(uv, full, low, sample_offset(f, k)))
+                        .collect();
+                    let hits = weights.iter().filter(|&&w| (w - 1.0).abs() < 1e-9).count();
+                    let others = weights.iter().filter(|&&w| w.abs() > 1e-9).count();
+                    assert_eq!(
+                        (hits, others),
+                        (1, 1),
+                        "k {k}, pixel ({px}, {py}): {weights:?}"
+                    );
+                }
+            }
+        }
+        // A pixel visited every fourth frame forgets as fast as one blended every frame.
+        let alpha = 0.1;
+        assert!((hit_blend(alpha, 2) - (1.0 - 0.9f64.powi(4))).abs() < 1e-12);
+        assert_eq!(hit_blend(alpha, 1), alpha);
+        assert_eq!(hit_blend(f64::NAN, 2), 1.0);
+    }
+
+    #[test]
+    fn temporal_upsampling_converges_to_the_full_resolution_image() {
+        // A still view of fine structure (periods of 3 and 3.7 pixels), marched at half
+        // resolution and accumulated over 32 frames with a blend of 0.1. With the rays always
+        // through their texels' centres, the accumulation converges to the bilinear upsample,
+        // which blurs the structure away; with the rays visiting each pixel's centre in turn it
+        // converges to the full-resolution image, up to the neighbourhood clamp.
+        let (full, low) = ([32_u32, 32], [16_u32, 16]);
+        let k = upsampling_factor(full, low);
+        // The image at a point in full-resolution pixels.
+        let scene = |x: f64, y: f64| 0.5 + 0.4 * (x * 2.1).sin() * (y * 1.7).cos();
+        let alpha = 0.1;
+        let run = |upsampling: bool| -> f64 {
+            let pixels = (full[0] * full[1]) as usize;
+            let mut history: Vec<Option<[f64; 1]>> = vec![None; pixels];
+            for frame in 0..32 {
+                let offset = if upsampling {
+                    sample_offset(frame, k)
+                } else {
+                    [0.0; 2]
+                };
+                let texel_value = |tx: u32, ty: u32| {
+                    let at = |t: u32, o: f64| (f64::from(t) + 0.5 + o) * f64::from(k);
+                    scene(at(tx, offset[0]), at(ty, offset[1]))
+                };
+                let image = LowResImage {
+                    size: low,
+                    values: (0..low[1])
+                        .flat_map(|ty| (0..low[0]).map(move |tx| [texel_value(tx, ty)]))
+                        .collect(),
+                    distances_m: vec![FAR_AWAY; (low[0] * low[1]) as usize],
+                };
+                history = (0..pixels)
+                    .map(|p| {
+                        let (px, py) = (p as u32 % full[0], p as u32 / full[0]);
+                        let uv = [
+                            (f64::from(px) + 0.5) / f64::from(full[0]),
+                            (f64::from(py) + 0.5) / f64::from(full[1]),
+                        ];
+                        let current = upsample_offset(&image, uv, FAR_AWAY, offset);
+                        let (cx, cy) = (px / k, py / k);
+                        let (mut lo, mut hi) = (current, current);
+                        for ty in cy.saturating_sub(1)..=(cy + 1).min(low[1] - 1) {
+                            for tx in cx.saturating_sub(1)..=(cx + 1).min(low[0] - 1) {
+                                let [v] = image.values[(ty * low[0] + tx) as usize];
+                                lo[0] = lo[0].min(v);
+                                hi[0] = hi[0].max(v);
+                            }
+                        }
+                        Some(if upsampling {
+                            let proximity = hit_proximity(uv, full, low, offset);
+                            temporal_upsample_resolve(
+                                current,
+                                lo,
+                                hi,
+                                history[p],
+                                hit_blend(alpha, k),
+                                proximity,
+                            )
+                        } else {
+                            temporal_resolve(current, lo, hi, history[p], alpha)
+                        })
+                    })
+                    .collect();
+            }
+            let squared: f64 = (0..pixels)
+                .map(|p| {
+                    let (px, py) = (p as u32 % full[0], p as u32 / full[0]);
+                    let truth = scene(f64::from(px) + 0.5, f64::from(py) + 0.5);
+                    (history[p].unwrap()[0] - truth).powi(2)
+                })
+                .sum();
+            (squared / pixels as f64).sqrt()
+        };
+        let (plain, upsampled) = (run(false), run(true));
+        println!(
+            "RMS error after 32 frames: texel centres {plain:.4}, pixel centres {upsampled:.4}"
+        );
+        assert!(
+            plain > 0.1,
+            "the test image must have structure finer than a texel"
+        );
+        assert!(upsampled < 0.2 * plain, "{upsampled} against {plain}");
     }
 
     #[test]

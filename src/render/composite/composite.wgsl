@@ -88,7 +88,13 @@ struct Footprint {
 }
 
 fn footprint(uv: vec2<f32>, size: vec2<i32>) -> Footprint {
-    let position = uv * vec2<f32>(size) - 0.5;
+    return footprint_offset(uv, size, vec2<f32>(0.0));
+}
+
+// The footprint of an image whose texels were sampled `offset` texels from their centres (the
+// temporal upsampling). Rust: `upsample_offset`.
+fn footprint_offset(uv: vec2<f32>, size: vec2<i32>, offset: vec2<f32>) -> Footprint {
+    let position = uv * vec2<f32>(size) - 0.5 - offset;
     let base = floor(position);
     return Footprint(vec2<i32>(base), position - base);
 }

@@ -8,20 +8,25 @@
 #import bevy_cloudscape::view_depth::{view, depth_prepass}
 #import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
 #import bevy_cloudscape::composite::{
-    FAR_AWAY, ViewGround, footprint, footprint_texel, upsample_weights, uv_to_ndc,
+    FAR_AWAY, ViewGround, footprint_offset, footprint_texel, upsample_weights, uv_to_ndc,
     view_direction, surface_distance, view_ray_end,
 }
 
-// Mirror in Rust: `GpuTemporalUniforms` (80 bytes).
+// Mirror in Rust: `GpuTemporalUniforms` (96 bytes).
 struct TemporalUniforms {
     // Last frame's clip space from a point relative to this frame's camera (world axes).
     previous_clip_from_relative: mat4x4<f32>,
-    // Weight of the new frame, 0-1.
+    // Weight of the new frame, 0-1, for a pixel this frame's march went through (Rust:
+    // `hit_blend`).
     blend: f32,
     // 1: the history holds last frame of this view; 0: start over.
     valid: u32,
-    _pad0: u32,
-    _pad1: u32,
+    // Where this frame's march rays passed through their texels, in texels from the centre
+    // (Rust: `sample_offset`).
+    sample_offset: vec2<f32>,
+    // Full-resolution pixels per march texel along an axis (Rust: `upsampling_factor`); 1: the
+    // march is at full resolution and every pixel takes the new frame.
+    upsampling_factor: u32,
 }
 
 // This frame's march: (L, T), and (where the ray stopped, where its content lies) in metres.
@@ -94,7 +99,7 @@ fn temporal_resolve(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
     // The new frame at this pixel, upsampled; where its content lies, from the tap that counts
     // most.
     let size = vec2<i32>(textureDimensions(march_colour));
-    let f = footprint(in.uv, size);
+    let f = footprint_offset(in.uv, size, temporal.sample_offset);
     var taps = vec4<f32>(0.0);
     var contents = vec4<f32>(0.0);
     for (var k = 0; k < 4; k++) {
@@ -126,13 +131,22 @@ fn temporal_resolve(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
         }
     }
 
-    // Rust: `temporal_resolve`.
+    // How closely this frame's ray went through this pixel: 1 for the pixel it went through,
+    // 0 for its neighbours (Rust: `hit_proximity`); 1 at full resolution.
+    var proximity = 1.0;
+    if temporal.upsampling_factor > 1u {
+        let sample_uv = (vec2<f32>(centre) + 0.5 + temporal.sample_offset) / vec2<f32>(size);
+        let near = max(vec2<f32>(0.0), 1.0 - abs((in.uv - sample_uv) * view.viewport.zw));
+        proximity = near.x * near.y;
+    }
+
+    // Rust: `temporal_upsample_resolve`.
     let previous = reproject(direction, content);
     if temporal.valid == 0u || previous.z == 0.0 {
         return current;
     }
     let old = sample_history(previous.xy);
-    let clamped = clamp(old, lo, hi);
-    let alpha = clamp(temporal.blend, 0.0, 1.0);
-    return mix(clamped, current, alpha);
+    let kept = mix(old, clamp(old, lo, hi), proximity);
+    let alpha = clamp(temporal.blend, 0.0, 1.0) * proximity;
+    return mix(kept, current, alpha);
 }

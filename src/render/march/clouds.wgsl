@@ -29,7 +29,7 @@
 // `scene * T + L`. Radiance is in the units of `sun_illuminance` per steradian (lux -> cd/m^2)
 // *before exposure*: the entry shader multiplies it by the view's exposure.
 
-// Per-view uniforms, 224 bytes. Every scalar group fills 16 bytes before the first vec4, so the
+// Per-view uniforms, 240 bytes. Every scalar group fills 16 bytes before the first vec4, so the
 // layout is the same under WGSL's uniform rules and encase. Mirror in Rust (`MarchSettings` in
 // reference/render.rs is the f64 source of the same values):
 //
@@ -55,15 +55,18 @@
 //         sun_from_shadow_map_m: f32,  // offset  68, FAR_AWAY when off
 //         shadow_map: u32,             // offset  72, 0 none, 1 bound
 //         min_step_m: f32,             // offset  76
-//         camera_up: Vec4,             // offset  80, xyz unit up at the camera, w unused
-//         sun_direction: Vec4,         // offset  96, xyz unit toward the sun (world), w unused
-//         sun_illuminance: Vec4,       // offset 112, rgb lux at the clouds, atmosphere applied
-//         ambient_top: Vec4,           // offset 128, rgb sky radiance at cloud tops
-//         ambient_bottom: Vec4,        // offset 144, rgb sky radiance at cloud bases
-//         shadow_map_centre_m: Vec4,   // offset 160, xyz relative to the camera
-//         shadow_map_axis_x: Vec4,     // offset 176, axis / |axis|^2
-//         shadow_map_axis_y: Vec4,     // offset 192
-//         shadow_map_range_m: Vec4,    // offset 208, (bottom, top, texel side, 0)
+//         sample_offset_uv: Vec2,      // offset  80, temporal upsampling, 0 when off
+//         _pad_a: u32,                 // offset  88
+//         _pad_b: u32,                 // offset  92
+//         camera_up: Vec4,             // offset  96, xyz unit up at the camera, w unused
+//         sun_direction: Vec4,         // offset 112, xyz unit toward the sun (world), w unused
+//         sun_illuminance: Vec4,       // offset 128, rgb lux at the clouds, atmosphere applied
+//         ambient_top: Vec4,           // offset 144, rgb sky radiance at cloud tops
+//         ambient_bottom: Vec4,        // offset 160, rgb sky radiance at cloud bases
+//         shadow_map_centre_m: Vec4,   // offset 176, xyz relative to the camera
+//         shadow_map_axis_x: Vec4,     // offset 192, axis / |axis|^2
+//         shadow_map_axis_y: Vec4,     // offset 208
+//         shadow_map_range_m: Vec4,    // offset 224, (bottom, top, texel side, 0)
 //     }
 struct CloudUniforms {
     // Radius of the ground sphere, m.
@@ -103,6 +106,12 @@ struct CloudUniforms {
     shadow_map: u32,
     // Shortest primary step, m (Rust: `MarchSettings::min_step_m`; 0: always primary_steps).
     min_step_m: f32,
+    // Temporal upsampling: where this frame's reduced-resolution rays pass through their
+    // texels, in uv from the texels' centres (Rust: `reference::composite::sample_offset`
+    // over the march's size). 0 at full resolution and without the accumulation.
+    sample_offset_uv: vec2<f32>,
+    pad_a: u32,
+    pad_b: u32,
     // xyz: unit vector from the planet centre through the camera.
     camera_up: vec4<f32>,
     // xyz: unit vector toward the sun, world space.
@@ -231,6 +240,7 @@ const PATCH_COVERAGE: f32 = 0.25;
 const PATCH_AREA_GAIN: f32 = 2.5;
 const BROKEN_PATCH_AREA: f32 = 0.75;
 const CLOSING_COVERAGE: f32 = 0.75;
+const SHAPE_WARP: f32 = 0.125;
 // Below this optical thickness `mean_step_transmittance` uses its series (Rust: SERIES_LIMIT,
 // 1e-5 there because f64 has expm1).
 const SERIES_LIMIT: f32 = 0.1;
@@ -503,6 +513,15 @@ fn weather_texel_coverage(layer: CloudLayerGpu, texel: vec2<i32>) -> f32 {
     return local_coverage(coverage, textureLoad(weather_noise, wrapped, 0).x);
 }
 
+// The skewed weather look-up in texel units, texel centres at integers:
+// (horizontal + offset + skew * height) / scale * size - 0.5. Rust: `weather_look_up`.
+fn weather_look_up(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_base_m: f32) -> vec2<f32> {
+    let size = f32(textureDimensions(weather_noise).x);
+    let uv = (horizontal_m + layer.weather_offset_m.xy + layer.weather_offset_m.zw * height_above_base_m)
+        / layer.weather_scale_m;
+    return uv * size - 0.5;
+}
+
 // Local coverage of a layer at `horizontal_m`, `height_above_base_m` up: the bilinear filter of
 // `weather_texel_coverage` over the four texels around the skewed weather look-up, filtered here
 // from texel values rather than by a sampler (the coverage ramp multiplies errors by about 7, and
@@ -510,10 +529,7 @@ fn weather_texel_coverage(layer: CloudLayerGpu, texel: vec2<i32>) -> f32 {
 // the four values from its weather map when the map holds them; elsewhere, and in the passes that
 // bind no map, it computes them. Rust: `weather_coverage`.
 fn weather_coverage(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_base_m: f32) -> f32 {
-    let size = f32(textureDimensions(weather_noise).x);
-    let uv = (horizontal_m + layer.weather_offset_m.xy + layer.weather_offset_m.zw * height_above_base_m)
-        / layer.weather_scale_m;
-    let x = uv * size - 0.5;
+    let x = weather_look_up(layer, horizontal_m, height_above_base_m);
     let cell = floor(x);
     let weight = x - cell;
     let texel = vec2<i32>(cell);
@@ -535,6 +551,26 @@ fn weather_coverage(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_
     let k01 = weather_texel_coverage(layer, texel + vec2<i32>(0, 1));
     let k11 = weather_texel_coverage(layer, texel + vec2<i32>(1, 1));
     return mix(mix(k00, k10, weight.x), mix(k01, k11, weight.x), weight.y);
+}
+
+// Displacement (metres) of the base-shape look-up: the weather noise's curl (B, A) mapped to
+// +-SHAPE_WARP of the shape period, filtered bilinearly from texel loads at the look-up
+// `weather_coverage` uses, so consecutive repeats of the shape are displaced differently and do
+// not add up to streaks along grazing rays. Rust: `shape_warp`.
+fn shape_warp(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_base_m: f32) -> vec2<f32> {
+    let size = vec2<i32>(textureDimensions(weather_noise));
+    let x = weather_look_up(layer, horizontal_m, height_above_base_m);
+    let cell = floor(x);
+    let weight = x - cell;
+    // True modulo on integers, so negative indices repeat too.
+    let t0 = (vec2<i32>(cell) % size + size) % size;
+    let t1 = (t0 + vec2<i32>(1)) % size;
+    let c00 = textureLoad(weather_noise, t0, 0).zw;
+    let c10 = textureLoad(weather_noise, vec2<i32>(t1.x, t0.y), 0).zw;
+    let c01 = textureLoad(weather_noise, vec2<i32>(t0.x, t1.y), 0).zw;
+    let c11 = textureLoad(weather_noise, t1, 0).zw;
+    let curl = mix(mix(c00, c10, weight.x), mix(c01, c11, weight.x), weight.y);
+    return (2.0 * curl - 1.0) * (SHAPE_WARP * layer.shape_scale_m);
 }
 
 // Extinction (1/m) of one layer at horizontal coordinates `horizontal_m` (along
@@ -560,7 +596,8 @@ fn layer_density(layer: CloudLayerGpu, horizontal_m: vec2<f32>, altitude_m: f32,
     let strength = saturate(layer.shape_strength);
     var shape = 1.0;
     if strength > 0.0 {
-        let uvw = vec3<f32>(horizontal_m.x + layer.noise_offset_m.x, altitude_m, horizontal_m.y + layer.noise_offset_m.y)
+        let warp = shape_warp(layer, horizontal_m, height_above_base);
+        let uvw = vec3<f32>(horizontal_m.x + layer.noise_offset_m.x + warp.x, altitude_m, horizontal_m.y + layer.noise_offset_m.y + warp.y)
             / layer.shape_scale_m;
         let texel_m = layer.shape_scale_m / f32(textureDimensions(base_noise).x);
         shape = mix(1.0, base_shape(sample_base_noise(uvw, texture_lod(footprint_m, texel_m))), strength);

@@ -91,15 +91,18 @@ fn upsampled_shafts(uv: vec2<f32>, distance: f32) -> vec2<f32> {
 #ifdef LOW_RES
 @fragment
 fn fragment(in: FullscreenVertexOutput) -> MarchOutput {
-    // This pixel's centre falls on one full-resolution pixel; the ray ends at its depth.
-    let depth = depth_under(in.uv);
+    // The ray goes through this frame's sample point of the texel (the temporal upsampling's
+    // offset, 0 without it), which falls on one full-resolution pixel; it ends at its depth.
+    let uv = in.uv + clouds.sample_offset_uv;
+    let depth = depth_under(uv);
 #else
 @fragment
 fn fragment(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
+    let uv = in.uv;
     let depth = textureLoad(depth_prepass, vec2<i32>(in.position.xy), 0);
 #endif
     let pixel = in.position.xy;
-    let ray = view_ray(in.uv, depth);
+    let ray = view_ray(uv, depth);
     let direction = ray.direction;
     let t_max = ray.t_max;
 
@@ -108,7 +111,7 @@ fn fragment(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
     let cloud = march_clouds(clouds.camera_altitude_m, clouds.camera_up.xyz, direction, t_max, jitter);
     let up = clouds.camera_up.xyz;
     let end = ray_end(clouds.camera_altitude_m, up, direction, t_max, clouds.planet_radius_m);
-    let shafts = upsampled_shafts(in.uv, end);
+    let shafts = upsampled_shafts(uv, end);
     let hazy = march_haze(clouds.camera_altitude_m, clouds.camera_up.xyz, direction, t_max, cloud.distance, jitter, shafts);
     let result = composite_haze(hazy, cloud.colour);
 #ifdef LOW_RES

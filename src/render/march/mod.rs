@@ -77,9 +77,9 @@ use super::{
     composite::{
         COMPOSITE_BLEND, CloudHistory, CloudLowResTargets, CloudShaftTarget, CloudTemporalPipeline,
         CloudUpsampleKey, CloudUpsamplePipeline, DepthLayouts, LOW_RES_COLOUR_FORMAT,
-        LOW_RES_DISTANCE_FORMAT, SHAFT_FORMAT, depth_binding, depth_shader_defs,
-        init_cloud_temporal_pipeline, init_cloud_upsample_pipeline, load_composite_shaders,
-        prepare_composite_targets,
+        LOW_RES_DISTANCE_FORMAT, SHAFT_FORMAT, TemporalUpsampling, depth_binding,
+        depth_shader_defs, init_cloud_temporal_pipeline, init_cloud_upsample_pipeline,
+        load_composite_shaders, prepare_composite_targets,
     },
     haze::{CloudShadowFrame, GpuHazeUniforms, Haze, haze_settings, load_haze_shader},
     noise::CloudNoiseTextures,
@@ -475,7 +475,7 @@ fn march_far_coverage(march: &mut MarchLayer, layer: &CloudLayer, camera: DVec3)
     march.far_count = count;
 }
 
-/// Per-view uniforms, laid out as `CloudUniforms` in `clouds.wgsl` (224 bytes).
+/// Per-view uniforms, laid out as `CloudUniforms` in `clouds.wgsl` (240 bytes).
 #[derive(ShaderType, Clone, Debug, Default)]
 pub struct GpuCloudUniforms {
     planet_radius_m: f32,
@@ -498,6 +498,9 @@ pub struct GpuCloudUniforms {
     sun_from_shadow_map_m: f32,
     shadow_map: u32,
     min_step_m: f32,
+    sample_offset_uv: Vec2,
+    _pad0: u32,
+    _pad1: u32,
     camera_up: Vec4,
     sun_direction: Vec4,
     sun_illuminance: Vec4,
@@ -558,6 +561,9 @@ impl GpuCloudUniforms {
             sun_from_shadow_map_m: sun_from_map,
             shadow_map: u32::from(map.is_some()),
             min_step_m: settings.min_step_m as f32,
+            sample_offset_uv: Vec2::ZERO,
+            _pad0: 0,
+            _pad1: 0,
             camera_up: vec4(settings.camera_up),
             sun_direction: vec4(settings.sun_direction),
             sun_illuminance: vec4(settings.sun_illuminance),
@@ -571,6 +577,13 @@ impl GpuCloudUniforms {
                 Vec4::new(bottom as f32, top as f32, m.texel_m() as f32, 0.0)
             }),
         }
+    }
+
+    /// These uniforms with the temporal upsampling's offset of this frame's rays, in uv
+    /// ([`TemporalUpsampling::offset_uv`]).
+    pub fn with_sample_offset(mut self, offset_uv: Vec2) -> Self {
+        self.sample_offset_uv = offset_uv;
+        self
     }
 }
 
@@ -674,6 +687,9 @@ pub struct ExtractedCloudView {
     pub camera_m: DVec3,
     /// [`VolumetricClouds::weather_map_size`].
     pub weather_map_size: u32,
+    /// Where this frame's reduced-resolution rays pass through their texels (none without the
+    /// temporal accumulation or at full resolution).
+    pub upsampling: TemporalUpsampling,
 }
 
 /// How many times the march pass ran, for diagnostics and tests (render world).
@@ -713,9 +729,8 @@ fn extract_cloud_views(
     let haze = haze.as_deref().unwrap_or(&clear);
     for (entity, camera, settings, transform, projection) in &cameras {
         let mut entity_commands = commands.entity(entity);
-        let height = camera
-            .physical_viewport_size()
-            .map_or(1, |size| size.y.max(1));
+        let viewport = camera.physical_viewport_size().unwrap_or(UVec2::ONE);
+        let height = viewport.y.max(1);
         let pixel_angle = match projection {
             Projection::Perspective(p) => f64::from(p.fov) / f64::from(height),
             // An orthographic or custom camera: one milliradian, the footprint of a 60° view
@@ -746,6 +761,12 @@ fn extract_cloud_views(
             haze,
             camera_m: transform.translation().as_dvec3(),
             weather_map_size: settings.weather_map_size,
+            upsampling: TemporalUpsampling::new(
+                settings.effective_temporal_blend().is_some(),
+                viewport,
+                settings.effective_resolution_scale(),
+                frame.0,
+            ),
         });
     }
 }
@@ -798,11 +819,10 @@ fn prepare_cloud_view_buffers(
         // "no cloud anywhere").
         let map = shadow.as_deref().filter(|m| images.get(m.image).is_some());
         let frame = map.map(|m| m.relative_to(view.camera_m));
-        let mut uniforms = UniformBuffer::from(GpuCloudUniforms::new(
-            &view.settings,
-            layer_count,
-            frame.as_ref(),
-        ));
+        let mut uniforms = UniformBuffer::from(
+            GpuCloudUniforms::new(&view.settings, layer_count, frame.as_ref())
+                .with_sample_offset(view.upsampling.offset_uv),
+        );
         uniforms.set_label(Some("cloud_march_uniforms"));
         uniforms.write_buffer(&device, &queue);
         let mut layers = StorageBuffer::from(gpu_layers);
@@ -1417,7 +1437,7 @@ mod tests {
 
     #[test]
     fn gpu_structs_match_the_shader_layout() {
-        assert_eq!(GpuCloudUniforms::min_size().get(), 224);
+        assert_eq!(GpuCloudUniforms::min_size().get(), 240);
         assert_eq!(GpuCloudLayer::min_size().get(), 208);
     }
 
