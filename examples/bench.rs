@@ -546,8 +546,8 @@ fn error_budget(scene: &Scene) {
         ("HIGH", hp, hl, hc, hg, false),
         ("HIGH, jitter mean", hp, hl, hc, hg, true),
         ("HIGH, 32 light", hp, 32, hc, hg, false),
-        ("HIGH, 512 primary", 512, hl, hc, hg, false),
-        ("HIGH, 512 primary, mean", 512, hl, hc, hg, true),
+        ("HIGH, twice the primary", 2 * hp, hl, hc, hg, false),
+        ("HIGH, twice the primary, mean", 2 * hp, hl, hc, hg, true),
         ("HIGH, no cut-off", hp, hl, 0.0, hg, false),
         ("HIGH, even steps", hp, hl, hc, 0.0, false),
         (
