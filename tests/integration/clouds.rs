@@ -832,19 +832,8 @@ fn temporal_accumulation_converges_and_follows_the_camera() {
     };
     // The CPU twin of the last rendered view: averaged over 16 frames' jitter, and converged.
     let references = |rig: &mut CloudRig| {
-        let view = rig.rendered_view.clone().unwrap();
-        let mut mean = vec![[0.0f32; 3]; (size.x * size.y) as usize];
-        for frame in 0..16 {
-            let mut jittered = view.clone();
-            jittered.settings.frame_index = frame;
-            rig.rendered_view = Some(jittered);
-            for (m, l) in mean.iter_mut().zip(rig.reference(&textures).0) {
-                for c in 0..3 {
-                    m[c] += l[c] / 16.0;
-                }
-            }
-        }
-        let mut converged = view;
+        let mean = cpu_jitter_mean(rig, &textures, 16);
+        let mut converged = rig.rendered_view.clone().unwrap();
         converged.settings.jitter = false;
         converged.settings.primary_steps = 256;
         converged.settings.min_step_m = 0.0;
@@ -929,18 +918,7 @@ fn temporal_upsampling_resolves_detail_finer_than_the_march() {
     rig.set_scene(&scene);
     let (single_l, _) = rig.render(3);
     // The CPU's full-resolution image, averaged over 16 frames' jitter.
-    let view = rig.rendered_view.clone().unwrap();
-    let mut mean_l = vec![[0.0f32; 3]; (size.x * size.y) as usize];
-    for frame in 0..16 {
-        let mut jittered = view.clone();
-        jittered.settings.frame_index = frame;
-        rig.rendered_view = Some(jittered);
-        for (m, l) in mean_l.iter_mut().zip(rig.reference(&textures).0) {
-            for c in 0..3 {
-                m[c] += l[c] / 16.0;
-            }
-        }
-    }
+    let mean_l = cpu_jitter_mean(&mut rig, &textures, 16);
     // The blur floor: that image averaged over each texel's 2 × 2 pixels, upsampled back.
     let low = [size.x / 2, size.y / 2];
     let pixel = |x: u32, y: u32| mean_l[(y * size.x + x) as usize];
@@ -990,6 +968,27 @@ fn temporal_upsampling_resolves_detail_finer_than_the_march() {
         accumulated < 0.5 * single,
         "accumulated {accumulated} against one frame {single}"
     );
+}
+
+/// The CPU twin of the rig's last rendered view, averaged over the jitter of `frames` frames
+/// (0 to `frames − 1`); the rig keeps that view.
+fn cpu_jitter_mean(rig: &mut CloudRig, textures: &CloudTextures, frames: u32) -> Vec<[f32; 3]> {
+    let view = rig.rendered_view.clone().expect("a rendered view");
+    let mut mean: Vec<[f32; 3]> = Vec::new();
+    for frame in 0..frames {
+        let mut jittered = view.clone();
+        jittered.settings.frame_index = frame;
+        rig.rendered_view = Some(jittered);
+        let (radiance, _) = rig.reference(textures);
+        mean.resize(radiance.len(), [0.0; 3]);
+        for (m, l) in mean.iter_mut().zip(radiance) {
+            for c in 0..3 {
+                m[c] += l[c] / frames as f32;
+            }
+        }
+    }
+    rig.rendered_view = Some(view);
+    mean
 }
 
 /// View rays keep their direction far from the scene's origin: a camera 80 km out (Bern's
