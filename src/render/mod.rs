@@ -71,8 +71,10 @@ pub struct VolumetricClouds {
     pub jitter: bool,
     /// Fraction of the view's resolution the march runs at, per axis (0.25–1). Below 1 the
     /// clouds are marched into a smaller image and upsampled with depth awareness, so they do
-    /// not bleed over the edges of near geometry; 0.5 marches a quarter of the pixels.
-    /// Default 1 (`LOW`: 0.5).
+    /// not bleed over the edges of near geometry; 0.5 marches a quarter of the pixels. With the
+    /// temporal accumulation on ([`VolumetricClouds::temporal_blend`]) each frame's rays go
+    /// through another of the pixels each texel stands for, and a still view converges to the
+    /// full resolution ([`composite::TemporalUpsampling`]). Default 1 (`LOW`: 0.5).
     pub resolution_scale: f32,
     /// Radius of the planet the layers are shells around, metres. Default 6 371 000 (Earth's
     /// mean radius).
