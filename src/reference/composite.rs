@@ -198,16 +198,17 @@ pub fn sample_offset(frame: u32, factor: u32) -> [f64; 2] {
     [column, row].map(|i| (f64::from(i) + 0.5) / f64::from(k) - 0.5)
 }
 
+/// `x` clamped to 0–1, NaN read as 1 (a blend weight that keeps the new frame).
+fn unit_weight(x: f64) -> f64 {
+    if x.is_nan() { 1.0 } else { x.clamp(0.0, 1.0) }
+}
+
 /// The weight of the new frame for a pixel whose ray this frame's march passed through, so
 /// that each pixel, visited once in `k²` frames, forgets its history as fast as with `alpha`
 /// every frame: `1 − (1 − α)^(k²)`. `alpha` itself for `k = 1` (NaN: 1). WGSL: computed on the
-/// CPU into `TemporalUniforms::hit_blend`.
+/// CPU into `TemporalUniforms::blend`.
 pub fn hit_blend(alpha: f64, factor: u32) -> f64 {
-    let alpha = if alpha.is_nan() {
-        1.0
-    } else {
-        alpha.clamp(0.0, 1.0)
-    };
+    let alpha = unit_weight(alpha);
     match factor.clamp(1, MAX_UPSAMPLING_FACTOR) {
         1 => alpha,
         k => 1.0 - (1.0 - alpha).powi((k * k) as i32),
@@ -218,9 +219,19 @@ pub fn hit_blend(alpha: f64, factor: u32) -> f64 {
 /// `Π max(0, 1 − |d|)` over the axes, with `d` the distance in full-resolution pixels from the
 /// pixel's centre to the sample of the texel holding it (its centre plus `offset` texels,
 /// [`sample_offset`]). 1 for the pixel the ray went through, 0 for its neighbours when the
-/// resolutions divide evenly. `full` and `low` are the two images' sizes. WGSL twin: the end
-/// of `temporal.wgsl`.
-pub fn hit_proximity(uv: [f64; 2], full: [u32; 2], low: [u32; 2], offset: [f64; 2]) -> f64 {
+/// resolutions divide evenly. `full` and `low` are the two images' sizes. 1 everywhere at
+/// [`upsampling_factor`] 1 (`factor`): every pixel then takes every frame, as without the
+/// upsampling. WGSL twin: the end of `temporal.wgsl`.
+pub fn hit_proximity(
+    uv: [f64; 2],
+    full: [u32; 2],
+    low: [u32; 2],
+    factor: u32,
+    offset: [f64; 2],
+) -> f64 {
+    if factor <= 1 {
+        return 1.0;
+    }
     (0..2)
         .map(|a| {
             let n = f64::from(low[a].max(1));
@@ -297,8 +308,7 @@ pub fn temporal_upsample_resolve<const N: usize>(
     let Some(history) = history else {
         return current;
     };
-    let unit = |x: f64| if x.is_nan() { 1.0 } else { x.clamp(0.0, 1.0) };
-    let (alpha, proximity) = (unit(alpha), unit(proximity));
+    let (alpha, proximity) = (unit_weight(alpha), unit_weight(proximity));
     std::array::from_fn(|c| {
         let clamped = history[c].max(lo[c]).min(hi[c]);
         let kept = history[c] + (clamped - history[c]) * proximity;
@@ -466,7 +476,7 @@ mod tests {
                         (f64::from(py) + 0.5) / f64::from(full[1]),
                     ];
                     let weights: Vec<f64> = (0..k * k)
-                        .map(|f| hit_proximity(uv, full, low, sample_offset(f, k)))
+                        .map(|f| hit_proximity(uv, full, low, k, sample_offset(f, k)))
                         .collect();
                     let hits = weights.iter().filter(|&&w| (w - 1.0).abs() < 1e-9).count();
                     let others = weights.iter().filter(|&&w| w.abs() > 1e-9).count();
@@ -478,6 +488,11 @@ mod tests {
                 }
             }
         }
+        // At factor 1 every pixel takes every frame, also where the sizes do not divide evenly.
+        assert_eq!(
+            hit_proximity([0.3, 0.7], [160, 90], [128, 72], 1, [0.0; 2]),
+            1.0
+        );
         // A pixel visited every fourth frame forgets as fast as one blended every frame.
         let alpha = 0.1;
         assert!((hit_blend(alpha, 2) - (1.0 - 0.9f64.powi(4))).abs() < 1e-12);
@@ -535,7 +550,7 @@ mod tests {
                             }
                         }
                         Some(if upsampling {
-                            let proximity = hit_proximity(uv, full, low, offset);
+                            let proximity = hit_proximity(uv, full, low, k, offset);
                             temporal_upsample_resolve(
                                 current,
                                 lo,

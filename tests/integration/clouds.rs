@@ -776,20 +776,27 @@ fn haze_veils_distant_clouds_like_the_cpu_reference() {
     );
 }
 
+/// The showcase's noon cumulus marched in 24 jittered steps, each frame on its own (no
+/// accumulation): the scene of the jitter and temporal tests.
+fn jittered_noon_cumulus() -> Scene {
+    let mut scene = showcase_scenes().remove(0);
+    scene.settings = VolumetricClouds {
+        jitter: true,
+        primary_steps: 24,
+        temporal_blend: 1.0,
+        ..scene.settings
+    };
+    scene
+}
+
 /// With jitter on, the GPU reads the blue-noise map the CPU twin makes: the same jittered image,
 /// frame for frame.
 #[test]
 fn blue_noise_jitter_matches_the_cpu_reference() {
     let size = UVec2::new(64, 36);
     let (textures, mut rig) = small_rig(size);
-    let mut scene = showcase_scenes().remove(0);
-    scene.settings = VolumetricClouds {
-        jitter: true,
-        primary_steps: 24,
-        // One frame, not the average of several.
-        temporal_blend: 1.0,
-        ..scene.settings
-    };
+    // One frame, not the average of several.
+    let scene = jittered_noon_cumulus();
     rig.set_scene(&scene);
     let (gpu_l, _) = rig.render(3);
     let (cpu_l, _) = rig.reference(&textures);
@@ -823,13 +830,7 @@ fn blue_noise_jitter_matches_the_cpu_reference() {
 fn temporal_accumulation_converges_and_follows_the_camera() {
     let size = UVec2::new(64, 36);
     let (textures, mut rig) = small_rig(size);
-    let mut scene = showcase_scenes().remove(0);
-    scene.settings = VolumetricClouds {
-        jitter: true,
-        primary_steps: 24,
-        temporal_blend: 1.0,
-        ..scene.settings
-    };
+    let mut scene = jittered_noon_cumulus();
     // The CPU twin of the last rendered view: averaged over 16 frames' jitter, and converged.
     let references = |rig: &mut CloudRig| {
         let mean = cpu_jitter_mean(rig, &textures, 16);
@@ -907,14 +908,8 @@ fn temporal_upsampling_resolves_detail_finer_than_the_march() {
     use bevy_cloudscape::reference::composite::{FAR_AWAY, LowResImage, upsample};
     let size = UVec2::new(64, 36);
     let (textures, mut rig) = small_rig(size);
-    let mut scene = showcase_scenes().remove(0);
-    scene.settings = VolumetricClouds {
-        jitter: true,
-        primary_steps: 24,
-        temporal_blend: 1.0,
-        resolution_scale: 0.5,
-        ..scene.settings
-    };
+    let mut scene = jittered_noon_cumulus();
+    scene.settings.resolution_scale = 0.5;
     rig.set_scene(&scene);
     let (single_l, _) = rig.render(3);
     // The CPU's full-resolution image, averaged over 16 frames' jitter.

@@ -281,12 +281,13 @@ pub struct TemporalUpsampling {
 }
 
 impl TemporalUpsampling {
-    /// The upsampling of frame `frame` of a view of `viewport` pixels marched at `scale`
-    /// ([`low_res_size`]), accumulating when `accumulates`.
-    pub fn new(accumulates: bool, viewport: UVec2, scale: f32, frame: u32) -> Self {
-        let low = low_res_size(viewport, scale);
+    /// The upsampling of frame `frame` of a view whose target is `size` pixels, marched at
+    /// `scale` into [`low_res_size`] texels (the sizes [`CloudLowResTargets`] get), accumulating
+    /// when `accumulates`.
+    pub fn new(accumulates: bool, size: UVec2, scale: f32, frame: u32) -> Self {
+        let low = low_res_size(size, scale);
         let factor = if accumulates {
-            upsampling_factor(viewport.to_array(), low.to_array())
+            upsampling_factor(size.to_array(), low.to_array())
         } else {
             1
         };

@@ -729,8 +729,9 @@ fn extract_cloud_views(
     let haze = haze.as_deref().unwrap_or(&clear);
     for (entity, camera, settings, transform, projection) in &cameras {
         let mut entity_commands = commands.entity(entity);
-        let viewport = camera.physical_viewport_size().unwrap_or(UVec2::ONE);
-        let height = viewport.y.max(1);
+        let height = camera
+            .physical_viewport_size()
+            .map_or(1, |size| size.y.max(1));
         let pixel_angle = match projection {
             Projection::Perspective(p) => f64::from(p.fov) / f64::from(height),
             // An orthographic or custom camera: one milliradian, the footprint of a 60° view
@@ -761,9 +762,10 @@ fn extract_cloud_views(
             haze,
             camera_m: transform.translation().as_dvec3(),
             weather_map_size: settings.weather_map_size,
+            // The march's targets are sized from the whole render target.
             upsampling: TemporalUpsampling::new(
                 settings.effective_temporal_blend().is_some(),
-                viewport,
+                camera.physical_target_size().unwrap_or(UVec2::ONE),
                 settings.effective_resolution_scale(),
                 frame.0,
             ),
