@@ -147,9 +147,10 @@ impl VolumetricClouds {
     /// march; while the camera moves the clouds are softer, each pixel taking new data only
     /// every fourth frame. In the `bench` example (160×90, lavapipe, after 32 still frames) it
     /// comes within 1.9 % of a converged march in cumulus and the grazing view, 0.5 % in
-    /// stratus, 4.9 % inside a cumulus and 5.6 % at sunset, at 2.3–2.6 % of the reference's
-    /// time (0.3 % in stratus, 5.2 % at sunset). Per frame that is 1.0–1.7 times
-    /// [`VolumetricClouds::MEDIUM`]'s cost there, at a fifth of its error or less. It keeps all
+    /// stratus, 4.9 % inside a cumulus and 5.6 % at sunset, at 2.3–3.0 % of the reference's
+    /// time (0.3 % in stratus, 5.4 % at sunset). Per frame that is 1.1–1.6 times
+    /// [`VolumetricClouds::MEDIUM`]'s cost there, at a fifth of its error or less (in stratus,
+    /// where MEDIUM is already close, 0.50 % against 0.62 %). It keeps all
     /// scattering octaves: they cost arithmetic only, and dropping them darkens the clouds (a
     /// bias the bench measured at about 40 % relative error in overcast).
     pub const LOW: Self = Self {
