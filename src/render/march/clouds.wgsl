@@ -56,7 +56,7 @@
 //         shadow_map: u32,             // offset  72, 0 none, 1 bound
 //         min_step_m: f32,             // offset  76
 //         sample_offset_uv: Vec2,      // offset  80, temporal upsampling, 0 when off
-//         _pad_a: u32,                 // offset  88
+//         light_steps_per_footprint: f32, // offset 88, 0: no limit
 //         _pad_b: u32,                 // offset  92
 //         camera_up: Vec4,             // offset  96, xyz unit up at the camera, w unused
 //         sun_direction: Vec4,         // offset 112, xyz unit toward the sun (world), w unused
@@ -110,7 +110,9 @@ struct CloudUniforms {
     // texels, in uv from the texels' centres (Rust: `reference::composite::sample_offset`
     // over the march's size). 0 at full resolution and without the accumulation.
     sample_offset_uv: vec2<f32>,
-    pad_a: u32,
+    // Most extra light steps per view-sample footprint (Rust:
+    // `MarchSettings::light_steps_per_footprint`; 0: no limit).
+    light_steps_per_footprint: f32,
     pad_b: u32,
     // xyz: unit vector from the planet centre through the camera.
     camera_up: vec4<f32>,
@@ -220,6 +222,9 @@ const FAR_BLEND_START: f32 = 0.3;
 const MAX_SCATTERING_OCTAVES: u32 = 8u;
 const MAX_PRIMARY_STEPS: u32 = 1024u;
 const MAX_LIGHT_STEPS: u32 = 64u;
+// Where each light-march step is sampled: its midpoint, whatever the view ray's jitter (an
+// average of e^-tau over offsets is biased bright). Rust: `LIGHT_SAMPLE_OFFSET`.
+const LIGHT_SAMPLE_OFFSET: f32 = 0.5;
 const LIGHT_STEP_SPAN_M: f32 = 2000.0;
 const CHEAP_STRIDE: u32 = 4u;
 const EMPTY_STEPS_TO_CHEAP: u32 = 4u;
@@ -692,10 +697,16 @@ fn point_mu_sun(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f32) -
     return clamp(((radius + h) * dot(sun, up) + dot(sun, position_m)) / (radius + altitude_m), -1.0, 1.0);
 }
 
-// Steps of a light march distance_m long: light_steps over LIGHT_STEP_SPAN_M or less, in
-// proportion beyond (rounded), at most MAX_LIGHT_STEPS. Rust: `light_step_count`.
-fn light_step_count(light_steps: u32, distance_m: f32) -> u32 {
-    let scaled = floor(f32(light_steps) * distance_m / LIGHT_STEP_SPAN_M + 0.5);
+// Steps of a light march distance_m long from a sample whose footprint is footprint_m:
+// light_steps over LIGHT_STEP_SPAN_M or less, in proportion beyond (rounded), but those extra
+// steps no more than clouds.light_steps_per_footprint per footprint (0: no limit); at most
+// MAX_LIGHT_STEPS. Rust: `light_step_count`.
+fn light_step_count(light_steps: u32, distance_m: f32, footprint_m: f32) -> u32 {
+    var scaled = floor(f32(light_steps) * distance_m / LIGHT_STEP_SPAN_M + 0.5);
+    let per_footprint = clouds.light_steps_per_footprint;
+    if per_footprint > 0.0 && footprint_m > 0.0 {
+        scaled = min(scaled, floor(per_footprint * distance_m / footprint_m));
+    }
     // NaN (and negatives) add no steps.
     let extra = select(0u, u32(min(scaled, f32(MAX_LIGHT_STEPS))), scaled >= 0.0);
     return min(max(light_steps, extra), MAX_LIGHT_STEPS);
@@ -703,8 +714,8 @@ fn light_step_count(light_steps: u32, distance_m: f32) -> u32 {
 
 // Optical depth toward the sun from `position_m` (relative to the camera at altitude h with
 // vertical up) at `altitude_m`: light_steps steps with boundaries at D (k/n)^2, each sampled
-// `offset` (0-1, the view ray's jitter) of the way through; negative when the ground blocks the
-// sun. Rust: `sun_optical_depth`.
+// `offset` (0-1; the march passes LIGHT_SAMPLE_OFFSET) of the way through; negative when the
+// ground blocks the sun. Rust: `sun_optical_depth`.
 fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f32, footprint_m: f32, max_distance_m: f32, light_steps: u32, offset: f32) -> f32 {
     let radius = clouds.planet_radius_m;
     let sun = clouds.sun_direction.xyz;
@@ -714,7 +725,7 @@ fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f
         return -1.0;
     }
     let distance = min(full_distance, max_distance_m);
-    let steps = light_step_count(light_steps, distance);
+    let steps = light_step_count(light_steps, distance, footprint_m);
     if steps == 0u || distance == 0.0 {
         return 0.0;
     }
@@ -947,12 +958,12 @@ fn integrate_step(ray: ptr<function, MarchRay>, t: f32, dt: f32, medium: Medium)
         if t >= clouds.sun_from_shadow_map_m && shadow_map_covers(uv) {
             let mu_sun = point_mu_sun((*ray).camera_altitude_m, (*ray).up, position, altitude);
             let end_altitude = altitude_along_ray(altitude, mu_sun, near, clouds.planet_radius_m);
-            optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, near, min(clouds.light_steps, SHADOW_MAP_NEAR_STEPS), (*ray).jitter);
+            optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, near, min(clouds.light_steps, SHADOW_MAP_NEAR_STEPS), LIGHT_SAMPLE_OFFSET);
             if optical_depth >= 0.0 {
                 optical_depth += map_sun_optical_depth(uv, end_altitude);
             }
         } else {
-            optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, FAR_AWAY, clouds.light_steps, (*ray).jitter);
+            optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, FAR_AWAY, clouds.light_steps, LIGHT_SAMPLE_OFFSET);
         }
         if optical_depth >= 0.0 {
             sun = multiple_scattering(optical_depth, (*ray).cos_sun);

@@ -336,6 +336,7 @@ pub fn march_inputs<'a>(
         } else {
             f64::from(settings.sun_from_shadow_map_m.max(0.0))
         },
+        light_steps_per_footprint: f64::from(settings.light_steps_per_footprint),
         ..default()
     };
 
@@ -499,7 +500,7 @@ pub struct GpuCloudUniforms {
     shadow_map: u32,
     min_step_m: f32,
     sample_offset_uv: Vec2,
-    _pad0: u32,
+    light_steps_per_footprint: f32,
     _pad1: u32,
     camera_up: Vec4,
     sun_direction: Vec4,
@@ -562,7 +563,14 @@ impl GpuCloudUniforms {
             shadow_map: u32::from(map.is_some()),
             min_step_m: settings.min_step_m as f32,
             sample_offset_uv: Vec2::ZERO,
-            _pad0: 0,
+            // 0: no limit.
+            light_steps_per_footprint: if settings.light_steps_per_footprint > 0.0
+                && settings.light_steps_per_footprint < f64::from(FAR_AWAY)
+            {
+                settings.light_steps_per_footprint as f32
+            } else {
+                0.0
+            },
             _pad1: 0,
             camera_up: vec4(settings.camera_up),
             sun_direction: vec4(settings.sun_direction),
