@@ -163,11 +163,10 @@ impl VolumetricClouds {
     /// ([`composite::TemporalUpsampling`]). A still view converges close to a full-resolution
     /// march; while the camera moves the clouds are softer, each pixel taking new data only
     /// every fourth frame. In the `bench` example (160×90, lavapipe, after 32 still frames) it
-    /// comes within 1.9 % of a converged march in cumulus and the grazing view, 0.5 % in
-    /// stratus, 4.9 % inside a cumulus and 5.6 % at sunset, at 2.3–3.0 % of the reference's
-    /// time (0.3 % in stratus, 5.4 % at sunset). Per frame that is 1.1–1.6 times
-    /// [`VolumetricClouds::MEDIUM`]'s cost there, at a fifth of its error or less (in stratus,
-    /// where MEDIUM is already close, 0.50 % against 0.62 %). It keeps all
+    /// comes within 1.7 % of a converged march in noon cumulus, 0.2 % in stratus, 1.4 % in the
+    /// grazing view, 4.7 % inside a cumulus and 5.4 % at sunset, at 0.3–3.7 % of the
+    /// reference's time; per frame that is 1.2–1.3 times [`VolumetricClouds::MEDIUM`]'s cost
+    /// there, at a fifth of its error or less. It keeps all
     /// scattering octaves: they cost arithmetic only, and dropping them darkens the clouds (a
     /// bias the bench measured at about 40 % relative error in overcast).
     pub const LOW: Self = Self {
@@ -206,10 +205,11 @@ impl VolumetricClouds {
         light_steps_per_footprint: 1.0,
         weather_map_size: crate::reference::weather_map::DEFAULT_WEATHER_MAP_SIZE,
     };
-    /// More steps for close-ups and stills: 512 primary and 24 light steps at full resolution.
-    /// In the `bench` example (160×90, lavapipe) it comes within 0.8 % of a converged march in
-    /// cumulus, 0.3 % in stratus, 1.8 % inside a cumulus, 0.9 % in the grazing view and 3.7 %
-    /// at sunset, at 1–10 % of the reference's time (23 % at sunset).
+    /// More steps for close-ups and stills: 512 primary and 24 light steps at full resolution,
+    /// two light steps per footprint at most beyond those. In the `bench` example (160×90,
+    /// lavapipe) it comes within 0.8 % of a converged march in cumulus, 0.1 % in stratus,
+    /// 1.8 % inside a cumulus, 0.8 % in the grazing view and 1.3 % at sunset, at 1–9 % of the
+    /// reference's time (16 % at sunset).
     pub const HIGH: Self = Self {
         quality: CloudQuality::High,
         primary_steps: 512,
