@@ -90,10 +90,14 @@ pub fn sun_direction((elevation, azimuth): (f32, f32)) -> Vec3 {
     Vec3::new(az.sin() * el.cos(), el.sin(), -az.cos() * el.cos())
 }
 
-/// Deterministic settings: no jitter, so GPU and CPU sample the same points.
+/// Deterministic settings: no jitter, so GPU and CPU sample the same points, at full
+/// resolution (the CPU reference renders one ray per pixel), with 5 light steps (cheap for the
+/// CPU twin; the GPU and CPU march the same steps either way).
 pub fn settings(primary_steps: u32) -> VolumetricClouds {
     VolumetricClouds {
         primary_steps,
+        light_steps: 5,
+        resolution_scale: 1.0,
         jitter: false,
         ..VolumetricClouds::MEDIUM
     }

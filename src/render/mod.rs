@@ -52,11 +52,13 @@ pub enum CloudQuality {
 pub struct VolumetricClouds {
     /// Which preset these knobs came from (informational).
     pub quality: CloudQuality,
-    /// Steps along the view ray through each layer interval (1–1024).
+    /// Steps along the view ray through each layer interval (1–1024). Default 384 (`LOW` 256,
+    /// `HIGH` 512, `ULTRA` 768).
     pub primary_steps: u32,
     /// Steps of the light march toward the sun from each sample (0–64; 0 = unshadowed), over
     /// a light path up to 2 km long; a longer path (a low sun's) takes proportionally more, up
-    /// to 64 ([`crate::reference::render::light_step_count`]).
+    /// to 64 ([`crate::reference::render::light_step_count`]). Default 24 (`LOW` 16, `ULTRA`
+    /// 32).
     pub light_steps: u32,
     /// How fast steps grow with distance from the camera, 1/m: a step at distance `d` is
     /// `1 + step_growth · d` times longer than one at the camera. 0 keeps steps even.
@@ -74,7 +76,7 @@ pub struct VolumetricClouds {
     /// not bleed over the edges of near geometry; 0.5 marches a quarter of the pixels. With the
     /// temporal accumulation on ([`VolumetricClouds::temporal_blend`]) each frame's rays go
     /// through another of the pixels each texel stands for, and a still view converges to the
-    /// full resolution ([`composite::TemporalUpsampling`]). Default 1 (`LOW`: 0.5).
+    /// full resolution ([`composite::TemporalUpsampling`]). Default 0.5 (`HIGH`, `ULTRA`: 1).
     pub resolution_scale: f32,
     /// Radius of the planet the layers are shells around, metres. Default 6 371 000 (Earth's
     /// mean radius).
@@ -157,37 +159,39 @@ pub struct VolumetricClouds {
 }
 
 impl VolumetricClouds {
-    /// Half resolution with temporal upsampling: 256 primary and 16 light steps on a quarter
-    /// of the rays. Each frame the rays go through another pixel of their 2 × 2 block, and the
-    /// accumulation assembles the full resolution over four frames
-    /// ([`composite::TemporalUpsampling`]). A still view converges close to a full-resolution
-    /// march; while the camera moves the clouds are softer, each pixel taking new data only
-    /// every fourth frame. In the `bench` example (160×90, lavapipe, after 32 still frames) it
-    /// comes within 1.7 % of a converged march in noon cumulus, 0.2 % in stratus, 1.4 % in the
-    /// grazing view, 4.7 % inside a cumulus and 5.4 % at sunset, at 0.3–3.7 % of the
-    /// reference's time; per frame that is 1.2–1.3 times [`VolumetricClouds::MEDIUM`]'s cost
-    /// there, at a fifth of its error or less. It keeps all
-    /// scattering octaves: they cost arithmetic only, and dropping them darkens the clouds (a
-    /// bias the bench measured at about 40 % relative error in overcast).
+    /// The cheapest: [`VolumetricClouds::MEDIUM`]'s half resolution with 256 primary and 16
+    /// light steps, 8 haze steps and no light shafts. In the `bench` example (160×90,
+    /// lavapipe, after 32 still frames) it comes within 1.7 % of a converged march in noon
+    /// cumulus, 0.2 % in stratus, 1.7 % in the grazing view, 4.8 % inside a cumulus and 5.4 % at
+    /// sunset, at 0.3–4.0 % of the reference's time, about 0.6–0.8 times `MEDIUM`'s.
     pub const LOW: Self = Self {
         quality: CloudQuality::Low,
         primary_steps: 256,
         light_steps: 16,
-        resolution_scale: 0.5,
         haze_steps: 8,
         light_shafts: false,
         ..Self::MEDIUM
     };
-    /// The default balance of speed and quality.
+    /// The default balance of speed and quality: half resolution with temporal upsampling, 384
+    /// primary and 24 light steps on a quarter of the rays. Each frame the rays go through
+    /// another pixel of their 2 × 2 block, and the accumulation assembles the full resolution
+    /// over four frames ([`composite::TemporalUpsampling`]). A still view converges close to a
+    /// full-resolution march; while the camera moves the clouds are softer, each pixel taking
+    /// new data only every fourth frame. It keeps all scattering octaves: they cost arithmetic
+    /// only, and dropping them darkens the clouds (a bias the bench measured at about 40 %
+    /// relative error in overcast). In the `bench` example (160×90, lavapipe, after 32
+    /// still frames) it comes within 1.1 % of a converged march in noon cumulus, 0.1 % in
+    /// stratus, 1.1 % in the grazing view, 2.5 % inside a cumulus and 4.7 % at sunset, at
+    /// 0.5–5.1 % of the reference's time.
     pub const MEDIUM: Self = Self {
         quality: CloudQuality::Medium,
-        primary_steps: 48,
-        light_steps: 5,
+        primary_steps: 384,
+        light_steps: 24,
         step_growth: 2.0e-5,
         transmittance_cutoff: 0.01,
         multiple_scattering_octaves: 4,
         jitter: true,
-        resolution_scale: 1.0,
+        resolution_scale: 0.5,
         planet_radius_m: 6_371_000.0,
         ground_height_m: 0.0,
         shape_scale_m: 4_000.0,
@@ -208,12 +212,13 @@ impl VolumetricClouds {
     /// More steps for close-ups and stills: 512 primary and 24 light steps at full resolution,
     /// two light steps per footprint at most beyond those. In the `bench` example (160×90,
     /// lavapipe) it comes within 0.8 % of a converged march in cumulus, 0.1 % in stratus,
-    /// 1.8 % inside a cumulus, 0.8 % in the grazing view and 1.3 % at sunset, at 1–9 % of the
-    /// reference's time (16 % at sunset).
+    /// 1.8 % inside a cumulus, 0.8 % in the grazing view and 1.3 % at sunset, at 1–10 % of the
+    /// reference's time (16–18 % at sunset).
     pub const HIGH: Self = Self {
         quality: CloudQuality::High,
         primary_steps: 512,
         light_steps: 24,
+        resolution_scale: 1.0,
         haze_steps: 24,
         light_steps_per_footprint: 2.0,
         ..Self::MEDIUM
@@ -224,6 +229,7 @@ impl VolumetricClouds {
         quality: CloudQuality::Ultra,
         primary_steps: 768,
         light_steps: 32,
+        resolution_scale: 1.0,
         transmittance_cutoff: 0.002,
         haze_steps: 48,
         light_shaft_resolution_scale: 0.5,
