@@ -213,7 +213,7 @@ impl VolumetricClouds {
     /// two light steps per footprint at most beyond those. In the `bench` example (160×90,
     /// lavapipe) it comes within 0.8 % of a converged march in cumulus, 0.1 % in stratus,
     /// 1.8 % inside a cumulus, 0.8 % in the grazing view and 1.3 % at sunset, at 1–10 % of the
-    /// reference's time (16–18 % at sunset).
+    /// reference's time (18 % at sunset).
     pub const HIGH: Self = Self {
         quality: CloudQuality::High,
         primary_steps: 512,
