@@ -136,7 +136,8 @@ pub struct VolumetricClouds {
     /// Shortest primary step, metres: a short interval (a thin layer, a fog bank the camera
     /// looks up through) is marched in fewer than [`VolumetricClouds::primary_steps`] steps, one
     /// per `min_step_m`. Steps finer than the detail noise's texels (700 m / 32 = 22 m by
-    /// default) add little. Default 20 m (`ULTRA` 5 m); 0 always marches every primary step.
+    /// default) add little. Default 20 m (`LOW` and `HIGH` 30 m, `ULTRA` 5 m); 0 always
+    /// marches every primary step.
     pub min_step_m: f32,
     /// Most extra light-march steps per pixel footprint. A low sun's light path through a
     /// layer is kilometres long, so it takes [`VolumetricClouds::light_steps`] per 2 km of
@@ -160,16 +161,18 @@ pub struct VolumetricClouds {
 
 impl VolumetricClouds {
     /// The cheapest: [`VolumetricClouds::MEDIUM`]'s half resolution with 256 primary and 16
-    /// light steps, 8 haze steps and no light shafts. In the `bench` example (160×90,
-    /// lavapipe, after 32 still frames) it comes within 1.7 % of a converged march in noon
-    /// cumulus, 0.2 % in stratus, 1.7 % in the grazing view, 4.8 % inside a cumulus and 5.4 % at
-    /// sunset, at 0.3–4.0 % of the reference's time, about 0.6–0.8 times `MEDIUM`'s.
+    /// light steps, a 30 m shortest primary step, 8 haze steps and no light shafts. In the
+    /// `bench` example (160×90, lavapipe, after 32 still frames) it comes within 2.0 % of a
+    /// converged march in noon cumulus, 0.2 % in stratus, 1.7 % in the grazing view, 4.8 % inside
+    /// a cumulus and 5.3 % at sunset, at 0.4–2.9 % of the reference's time, 0.55–0.87 times
+    /// `MEDIUM`'s.
     pub const LOW: Self = Self {
         quality: CloudQuality::Low,
         primary_steps: 256,
         light_steps: 16,
         haze_steps: 8,
         light_shafts: false,
+        min_step_m: 30.0,
         ..Self::MEDIUM
     };
     /// The default balance of speed and quality: half resolution with temporal upsampling, 384
@@ -182,7 +185,7 @@ impl VolumetricClouds {
     /// relative error in overcast). In the `bench` example (160×90, lavapipe, after 32
     /// still frames) it comes within 1.1 % of a converged march in noon cumulus, 0.1 % in
     /// stratus, 1.1 % in the grazing view, 2.5 % inside a cumulus and 4.7 % at sunset, at
-    /// 0.5–5.1 % of the reference's time.
+    /// 0.5–5.2 % of the reference's time.
     pub const MEDIUM: Self = Self {
         quality: CloudQuality::Medium,
         primary_steps: 384,
@@ -210,16 +213,20 @@ impl VolumetricClouds {
         weather_map_size: crate::reference::weather_map::DEFAULT_WEATHER_MAP_SIZE,
     };
     /// More steps for close-ups and stills: 512 primary and 24 light steps at full resolution,
-    /// two light steps per footprint at most beyond those. In the `bench` example (160×90,
-    /// lavapipe) it comes within 0.8 % of a converged march in cumulus, 0.1 % in stratus,
-    /// 1.8 % inside a cumulus, 0.8 % in the grazing view and 1.3 % at sunset, at 1–10 % of the
-    /// reference's time (18 % at sunset).
+    /// two light steps per footprint at most beyond those, a 30 m shortest primary step. In the
+    /// `bench` example (160×90, lavapipe) it comes within 1.1 % of a converged march in
+    /// cumulus, 0.1 % in stratus, 1.8 % inside a cumulus, 0.8 % in the grazing view and 1.4 % at
+    /// sunset, at 1.4–12.4 % of the reference's time (12.4 % at sunset). In noon cumulus it is
+    /// no closer than `MEDIUM` (1.08 % against 1.07 %): the rays cross the layer in a few
+    /// kilometres, which the 30 m shortest step marches in fewer than 512 steps (0.77 % with
+    /// 20 m, at 16.7 % of the reference's time at sunset).
     pub const HIGH: Self = Self {
         quality: CloudQuality::High,
         primary_steps: 512,
         light_steps: 24,
         resolution_scale: 1.0,
         haze_steps: 24,
+        min_step_m: 30.0,
         light_steps_per_footprint: 2.0,
         ..Self::MEDIUM
     };
