@@ -2,11 +2,13 @@
 //!
 //! ```text
 //! cargo run --release --example showcase -- [--width W] [--height H] [--frames N] [--out DIR]
+//!     [--scene NAME]
 //! ```
 //!
 //! Writes `DIR/SCENE.png` (default `showcase/`, 1280×720) for the scenes of the `bench` example
 //! plus a view of cumulus from above the layer, with the `HIGH` preset, after `N` frames of each
 //! scene (default 24), over which the temporal accumulation averages the jittered frames.
+//! `--scene NAME` renders that scene alone.
 
 mod common;
 
@@ -19,19 +21,22 @@ use common::{
     scenes::{Scene, showcase_scenes},
 };
 
-/// What to render: the image size, the frames per scene and where to write.
+/// What to render: the image size, the frames per scene, where to write and, if given, the one
+/// scene to render.
 struct Args {
     size: UVec2,
     frames: u32,
     out: PathBuf,
+    scene: Option<String>,
 }
 
 fn parse_args() -> Result<Args, String> {
-    let usage = "usage: showcase [--width W] [--height H] [--frames N] [--out DIR]";
+    let usage = "usage: showcase [--width W] [--height H] [--frames N] [--out DIR] [--scene NAME]";
     let mut args = Args {
         size: UVec2::new(1280, 720),
         frames: 24,
         out: PathBuf::from("showcase"),
+        scene: None,
     };
     let mut it = std::env::args().skip(1);
     while let Some(arg) = it.next() {
@@ -51,6 +56,7 @@ fn parse_args() -> Result<Args, String> {
                 }
             }
             "--out" => args.out = value()?.into(),
+            "--scene" => args.scene = Some(value()?),
             other => return Err(format!("unknown argument {other:?} ({usage})")),
         }
     }
@@ -72,6 +78,17 @@ fn scenes() -> Vec<Scene> {
 
 fn run(args: &Args) -> Result<(), String> {
     let (size, out) = (args.size, args.out.as_path());
+    let mut scenes = scenes();
+    if let Some(name) = &args.scene {
+        let names: Vec<&str> = scenes.iter().map(|scene| scene.name).collect();
+        scenes.retain(|scene| scene.name == name);
+        if scenes.is_empty() {
+            return Err(format!(
+                "no scene {name:?}; the scenes are {}",
+                names.join(", ")
+            ));
+        }
+    }
     std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
     let mut app = Headless::new(size, TextureFormat::Rgba8UnormSrgb, |app| {
         app.add_plugins(CloudscapePlugin)
@@ -93,7 +110,7 @@ fn run(args: &Args) -> Result<(), String> {
             .single(world)
             .map_err(|e| e.to_string())?
     };
-    for scene in scenes() {
+    for scene in scenes {
         scene.apply(app.world(), camera, sun);
         app.run_frames(args.frames);
         let pixels = app.read_target();
