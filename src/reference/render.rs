@@ -1072,46 +1072,19 @@ pub fn weather_coverage(
     kappa
 }
 
-/// Largest displacement of the base-shape look-up near the camera, as a fraction of
+/// Largest displacement of the base-shape look-up, as a fraction of
 /// [`MarchLayer::shape_scale_m`] (500 m at the default 4 km period): see [`shape_warp`].
 ///
 /// The base shape repeats every period, and a ray that grazes a layer crosses tens of periods. Its
 /// optical depth then depends on its lateral position alone, the same in every period, and the
 /// repeats add up to streaks that run toward the vanishing point. Displacing each period by a
-/// different amount breaks that sum. Near the camera an eighth of a period keeps the heaps round;
-/// a quarter swirled and sheared them visibly in the `showcase` renders. Far away the warp grows
-/// to [`SHAPE_WARP_FAR`].
+/// different amount breaks that sum. An eighth of a period removed the streaks in the `showcase`
+/// renders while the heaps kept round shapes; a quarter swirled and sheared them visibly.
 pub const SHAPE_WARP: f64 = 0.125;
 
-/// Largest displacement of the base-shape look-up far from the camera, as a fraction of
-/// [`MarchLayer::shape_scale_m`] (2 km at the default 4 km period). An eighth of a period
-/// weakened the fan of streaks toward the horizon but left it visible where a view looks along a
-/// noise axis; half a period removed it in the `showcase` sunset, and shears heaps so far away that
-/// a pixel covers tens of metres and the heaps are seen edge-on. See [`shape_warp_amplitude`].
-pub const SHAPE_WARP_FAR: f64 = 0.5;
-
-/// Horizontal distances from the camera, in shape periods ([`MarchLayer::shape_scale_m`]: 8 km
-/// and 32 km at the default 4 km), over which the warp grows from [`SHAPE_WARP`] to
-/// [`SHAPE_WARP_FAR`] along a smoothstep.
-pub const SHAPE_WARP_RAMP: [f64; 2] = [2.0, 8.0];
-
-/// Largest displacement of the base-shape look-up, metres, at `horizontal_distance_m` from the
-/// camera: [`SHAPE_WARP`] of the shape period out to the first distance of [`SHAPE_WARP_RAMP`],
-/// rising along a smoothstep to [`SHAPE_WARP_FAR`] at the second. It depends on the distance from
-/// the camera, so it is the same for the view ray, the light march and the shadow map at a
-/// point; as the camera moves by `d`, a point's displacement changes by at most
-/// `(SHAPE_WARP_FAR − SHAPE_WARP) · 1.5 / (ramp width in periods) · d` (9 % of `d` at the
-/// defaults), far below the parallax of the same move. WGSL twin: `shape_warp_amplitude`.
-pub fn shape_warp_amplitude(shape_scale_m: f64, horizontal_distance_m: f64) -> f64 {
-    let periods = horizontal_distance_m / shape_scale_m;
-    let t = saturate((periods - SHAPE_WARP_RAMP[0]) / (SHAPE_WARP_RAMP[1] - SHAPE_WARP_RAMP[0]));
-    let ramp = t * t * (3.0 - 2.0 * t);
-    lerp(SHAPE_WARP, SHAPE_WARP_FAR, ramp) * shape_scale_m
-}
-
 /// Displacement of the base-shape look-up at a point, metres along the noise axes: the weather
-/// noise's curl (channels B and A, each `0.5 + 0.5 · curl / range`) mapped to `±` the
-/// [`shape_warp_amplitude`] at the point's distance from the camera, filtered bilinearly from the same four weather texels and at the same
+/// noise's curl (channels B and A, each `0.5 + 0.5 · curl / range`) mapped to `±`[`SHAPE_WARP`]
+/// of the shape period, filtered bilinearly from the same four weather texels and at the same
 /// look-up as [`weather_coverage`]. The curl varies over the weather period, which is not a
 /// multiple of the shape period, so consecutive repeats of the shape are displaced differently;
 /// it is periodic in the weather period, so the wrapped weather offset keeps it continuous. WGSL
@@ -1125,8 +1098,7 @@ pub fn shape_warp(
     let n = weather.size.max(1);
     let taps = weather_look_up(n, layer, horizontal_m, height_above_base_m);
     let size = i64::from(n);
-    let amplitude =
-        shape_warp_amplitude(layer.shape_scale_m, horizontal_m[0].hypot(horizontal_m[1]));
+    let amplitude = SHAPE_WARP * layer.shape_scale_m;
     let mut warp = [0.0; 2];
     for corner in 0..4_usize {
         let (x, wx) = taps[0][corner & 1];
@@ -2451,22 +2423,21 @@ mod tests {
         );
     }
 
-    /// Lateral streak contrast of `periods` consecutive periods of the base shape, starting
-    /// `first_period` periods from the camera, along lines that run along the noise's x axis:
-    /// the spread of the differences between neighbouring lines for the mean over the periods,
-    /// against the mean spread of single periods. 1 means the repeats add up to streaks as
-    /// strong as one period's structure; `1/√periods` means the periods are independent.
-    ///
-    /// A grazing ray crosses many periods. Unwarped, the optical depth of each period along a
-    /// line is the same function of the line's lateral position, so the sum over periods keeps
-    /// the lateral contrast of one period: the line pattern of a single period, drawn toward
-    /// the vanishing point. The warp displaces each period differently, so the fine lateral
-    /// structure decorrelates and averages out. Coverage 1 and a flat profile leave the shape as
-    /// the only structure. The shape and the warp together repeat every lcm(8 km, 20 km) = 40
-    /// km, five shape periods. The base noise has 64 texels (125 m), finer than the shared test
-    /// textures' 500 m, because a warp of a few hundred metres cannot decorrelate structure that
-    /// coarse.
-    fn lateral_streak_ratio(first_period: usize, periods: usize) -> f64 {
+    #[test]
+    fn the_shape_warp_keeps_repeats_of_the_shape_from_adding_up_to_streaks() {
+        // A grazing ray crosses many periods of the base shape. Unwarped, the optical depth of
+        // each period along a line is the same function of the line's lateral position, so the
+        // sum over periods keeps the lateral contrast of one period: the line pattern of a
+        // single period, drawn toward the vanishing point. The warp displaces each period
+        // differently, so the fine lateral structure of the periods decorrelates and averages
+        // out. Measured on the lateral differences between neighbouring lines, the fine
+        // structure streaks are made of: their spread for the mean over periods, against the
+        // mean spread of single periods (1 unwarped; 1/√5 for five independent periods).
+        //
+        // Coverage 1 and a flat profile leave the shape as the only structure. The shape and
+        // the warp together repeat every lcm(8 km, 20 km) = 40 km, five shape periods. The base
+        // noise has 64 texels (125 m), finer than the shared test textures' 500 m, because a warp
+        // of a few hundred metres cannot decorrelate structure that coarse.
         static FINE: OnceLock<CloudTextures> = OnceLock::new();
         let textures = FINE.get_or_init(|| {
             CloudTextures::from_recipe(&NoiseRecipe {
@@ -2483,7 +2454,7 @@ mod tests {
         layer.set_profile(&[[0.0, 1.0], [1.0, 1.0]]);
         let altitude = 0.5 * (layer.base_m + layer.top_m);
         let period = layer.shape_scale_m;
-        let (lines, samples) = (64, 64);
+        let (periods, lines, samples) = (5, 64, 64);
         // Mean base-only extinction of period k along the line at lateral position z.
         let depth = |k: usize, z: f64| -> f64 {
             (0..samples)
@@ -2506,82 +2477,22 @@ mod tests {
         let rms = |values: &[f64]| -> f64 {
             (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt()
         };
-        let per_period: Vec<Vec<f64>> = (first_period..first_period + periods)
-            .map(fine_structure)
-            .collect();
+        let per_period: Vec<Vec<f64>> = (0..periods).map(fine_structure).collect();
         let summed: Vec<f64> = (0..lines)
             .map(|j| per_period.iter().map(|p| p[j]).sum::<f64>() / periods as f64)
             .collect();
         let single = per_period.iter().map(|p| rms(p)).sum::<f64>() / periods as f64;
         let ratio = rms(&summed) / single;
         println!(
-            "periods {first_period}..{}: lateral fine structure of one period {single:.2e}, \
-             of the mean {:.2e}, ratio {ratio:.3}",
-            first_period + periods,
+            "lateral fine structure: one period {single:.2e}, mean of {periods} periods {:.2e}, \
+             ratio {ratio:.3}",
             rms(&summed)
         );
         assert!(single > 0.0, "the shape noise must vary across the lines");
-        ratio
-    }
-
-    #[test]
-    fn the_shape_warp_keeps_repeats_of_the_shape_from_adding_up_to_streaks() {
-        // Near the camera, within the first two periods' warp of an eighth of a period, and
-        // across the ramp.
-        let ratio = lateral_streak_ratio(0, 5);
         assert!(
             ratio < 0.9,
             "repeats of the shape add up to streaks: ratio {ratio:.3}"
         );
-    }
-
-    #[test]
-    fn far_from_the_camera_the_repeats_of_the_shape_are_independent() {
-        // Beyond the ramp (8 periods) the warp is half a period: the five periods of one
-        // 40 km repeat are then as good as independent, so the mean's streak contrast is close
-        // to 1/√5 = 0.447 of one period's. The near warp of an eighth of a period leaves it
-        // at 0.8 or more (`the_shape_warp_keeps_repeats_of_the_shape_from_adding_up_to_streaks`
-        // prints it).
-        assert_eq!(
-            shape_warp_amplitude(4_000.0, 40_000.0),
-            SHAPE_WARP_FAR * 4_000.0
-        );
-        let ratio = lateral_streak_ratio(10, 5);
-        assert!(
-            ratio < 0.6,
-            "far repeats of the shape add up to streaks: ratio {ratio:.3}"
-        );
-    }
-
-    #[test]
-    fn the_shape_warp_grows_smoothly_with_distance_from_the_camera() {
-        let period = 4_000.0;
-        assert_eq!(shape_warp_amplitude(period, 0.0), SHAPE_WARP * period);
-        assert_eq!(
-            shape_warp_amplitude(period, SHAPE_WARP_RAMP[0] * period),
-            SHAPE_WARP * period
-        );
-        assert_eq!(shape_warp_amplitude(period, 1e9), SHAPE_WARP_FAR * period);
-        // Monotone, and no step larger than the smoothstep's steepest slope allows.
-        let steepest =
-            (SHAPE_WARP_FAR - SHAPE_WARP) * 1.5 / (SHAPE_WARP_RAMP[1] - SHAPE_WARP_RAMP[0]);
-        let step_m = 10.0;
-        let mut previous = shape_warp_amplitude(period, 0.0);
-        for i in 1..5_000 {
-            let amplitude = shape_warp_amplitude(period, f64::from(i) * step_m);
-            assert!(
-                amplitude >= previous,
-                "not monotone at {} m",
-                f64::from(i) * step_m
-            );
-            assert!(
-                amplitude - previous <= steepest * step_m * (1.0 + 1e-9),
-                "jump of {} m at {} m",
-                amplitude - previous,
-                f64::from(i) * step_m
-            );
-            previous = amplitude;
-        }
     }
 
     #[test]

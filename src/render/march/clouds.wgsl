@@ -246,8 +246,6 @@ const PATCH_AREA_GAIN: f32 = 2.5;
 const BROKEN_PATCH_AREA: f32 = 0.75;
 const CLOSING_COVERAGE: f32 = 0.75;
 const SHAPE_WARP: f32 = 0.125;
-const SHAPE_WARP_FAR: f32 = 0.5;
-const SHAPE_WARP_RAMP: vec2<f32> = vec2<f32>(2.0, 8.0);
 // Below this optical thickness `mean_step_transmittance` uses its series (Rust: SERIES_LIMIT,
 // 1e-5 there because f64 has expm1).
 const SERIES_LIMIT: f32 = 0.1;
@@ -560,16 +558,8 @@ fn weather_coverage(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_
     return mix(mix(k00, k10, weight.x), mix(k01, k11, weight.x), weight.y);
 }
 
-// Largest displacement (metres) of the base-shape look-up at `horizontal_distance_m` from the
-// camera: SHAPE_WARP of the shape period near, SHAPE_WARP_FAR beyond SHAPE_WARP_RAMP (periods).
-// Rust: `shape_warp_amplitude`.
-fn shape_warp_amplitude(shape_scale_m: f32, horizontal_distance_m: f32) -> f32 {
-    let ramp = smoothstep(SHAPE_WARP_RAMP.x, SHAPE_WARP_RAMP.y, horizontal_distance_m / shape_scale_m);
-    return mix(SHAPE_WARP, SHAPE_WARP_FAR, ramp) * shape_scale_m;
-}
-
 // Displacement (metres) of the base-shape look-up: the weather noise's curl (B, A) mapped to
-// +-`shape_warp_amplitude` at the point's distance from the camera, filtered bilinearly from texel loads at the look-up
+// +-SHAPE_WARP of the shape period, filtered bilinearly from texel loads at the look-up
 // `weather_coverage` uses, so consecutive repeats of the shape are displaced differently and do
 // not add up to streaks along grazing rays. Rust: `shape_warp`.
 fn shape_warp(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_base_m: f32) -> vec2<f32> {
@@ -585,7 +575,7 @@ fn shape_warp(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_base_m
     let c01 = textureLoad(weather_noise, vec2<i32>(t0.x, t1.y), 0).zw;
     let c11 = textureLoad(weather_noise, t1, 0).zw;
     let curl = mix(mix(c00, c10, weight.x), mix(c01, c11, weight.x), weight.y);
-    return (2.0 * curl - 1.0) * shape_warp_amplitude(layer.shape_scale_m, length(horizontal_m));
+    return (2.0 * curl - 1.0) * (SHAPE_WARP * layer.shape_scale_m);
 }
 
 // Extinction (1/m) of one layer at horizontal coordinates `horizontal_m` (along
