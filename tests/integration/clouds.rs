@@ -888,15 +888,12 @@ fn temporal_accumulation_converges_and_follows_the_camera() {
         relative_rmse(&mean_l, &truth_l),
     );
     assert!(still < 0.5 * single, "still {still} vs one frame {single}");
-    // Measured: one frame 35.2 %, accumulated 8.6 %, turning 22.5 % (a ratio of 0.64). The
-    // turning error is mostly the reprojection's resampling of cloud edges, so the ratio moves
-    // with the scene's shapes: before the broad shape warp the far heaps lined up into smooth
-    // streaks, and one frame was 20.8 %, turning 11.9 % (0.57, when this bound was 0.6); before
-    // coverage height 18.2 % and 11.5 % (0.63, bound 0.7). A history smeared instead of
-    // reprojected leaves the turning view as far off as the start pose's mean (79.6 %, the next
-    // assertion), twice this bound.
+    // Measured: one frame 20.8 %, accumulated 4.2 %, turning 11.9 % (a ratio of 0.57). The
+    // turning error is mostly the reprojection's resampling, so the ratio depends on how noisy
+    // one frame is: with the scene of the previous version (before coverage height) one frame
+    // was 18.2 % and turning 11.5 %, a ratio of 0.63, and this bound was 0.7 for a while.
     assert!(
-        moving < 0.7 * single,
+        moving < 0.6 * single,
         "turning {moving} vs one frame {single}"
     );
     assert!(
