@@ -25,6 +25,12 @@
 //! anti-aliasing; Karis 2014, "High Quality Temporal Supersampling"). A pixel whose history falls
 //! outside last frame's view takes the new frame alone.
 //!
+//! Every frame the camera moves, the history is read between its texels again, and what each
+//! read loses compounds over the `1/α` frames a value lives. So the history is read with a
+//! Lanczos-3 filter ([`lanczos3_weights`]), which keeps detail a few pixels across far better
+//! than a 4-tap cubic, and a pixel whose content moved takes more of the new frame
+//! ([`moving_blend`]), trading a little noise for less blur.
+//!
 //! # Temporal upsampling
 //!
 //! A march at a reduced resolution (each texel standing for `k × k` full-resolution pixels,
@@ -213,6 +219,48 @@ pub fn hit_blend(alpha: f64, factor: u32) -> f64 {
         1 => alpha,
         k => 1.0 - (1.0 - alpha).powi((k * k) as i32),
     }
+}
+
+/// The new frame's weight for a pixel whose content moved `motion_px` full-resolution pixels on
+/// screen since last frame (the distance between the pixel and its [`reproject`]ed position):
+/// `α · (1 + motion_px)`, clamped to 0–1 (NaN `alpha`: 1). A still pixel keeps `alpha`. A moving
+/// one forgets its history faster, because the history is resampled again every frame it
+/// moves and each resampling loses some detail ([`lanczos3_weights`]); at 0.7 pixel a frame
+/// the weight 0.1 becomes 0.17. WGSL twin: `moving_blend` in `temporal.wgsl`.
+pub fn moving_blend(alpha: f64, motion_px: f64) -> f64 {
+    let motion_px = if motion_px.is_nan() {
+        0.0
+    } else {
+        motion_px.abs()
+    };
+    unit_weight(unit_weight(alpha) * (1.0 + motion_px))
+}
+
+/// The weights with which the history is read at a point `fraction` (0–1) of a texel past the
+/// centre of texel `base`, for the texels `base − 2 ..= base + 3` of each axis: a Lanczos-3
+/// filter (a sinc windowed by a sinc three texels wide, Duchon 1979), normalised to sum to 1.
+/// At `fraction` 0 it is the texel itself. Reprojection resamples the history every frame the
+/// camera moves, and the losses compound, so the filter has to keep detail a few pixels across
+/// better than a 4-tap cubic does (the test `lanczos3_keeps_detail_through_a_turning_camera`).
+/// WGSL twin: `lanczos3_weights` in `temporal.wgsl`.
+pub fn lanczos3_weights(fraction: f64) -> [f64; 6] {
+    let sinc = |x: f64| {
+        if x.abs() < 1e-9 {
+            1.0
+        } else {
+            (std::f64::consts::PI * x).sin() / (std::f64::consts::PI * x)
+        }
+    };
+    let weights: [f64; 6] = std::array::from_fn(|i| {
+        let x = i as f64 - 2.0 - fraction;
+        if x.abs() < 3.0 {
+            sinc(x) * sinc(x / 3.0)
+        } else {
+            0.0
+        }
+    });
+    let sum: f64 = weights.iter().sum();
+    weights.map(|w| w / sum)
 }
 
 /// How closely this frame's ray passed through the full-resolution pixel centred on `uv`:
@@ -442,6 +490,81 @@ mod tests {
             temporal_resolve([0.3], [0.0], [1.0], Some([0.9]), f64::NAN),
             [0.3]
         );
+    }
+
+    /// A camera turning 0.7 pixel a frame: each frame the accumulation reads its history 0.7
+    /// pixel along and blends in 10 % of the exact new frame. A cosine a few pixels long must
+    /// survive 60 such frames. Lanczos-3 keeps it far better than the 4-tap Catmull-Rom cubic it
+    /// replaced; the motion-dependent blend keeps it better still.
+    #[test]
+    fn lanczos3_keeps_detail_through_a_turning_camera() {
+        let catmull_rom = |f: f64| {
+            [
+                f * (-0.5 + f * (1.0 - 0.5 * f)),
+                1.0 + f * f * (-2.5 + 1.5 * f),
+                f * (0.5 + f * (2.0 - 1.5 * f)),
+                f * f * (-0.5 + 0.5 * f),
+            ]
+        };
+        // Relative RMS error after 60 frames of a cosine of `period` pixels on a ring of 60.
+        let turn = |period: f64, first_tap: i64, weights: &dyn Fn(f64) -> Vec<f64>, alpha: f64| {
+            let n = 60usize;
+            let step = 0.7;
+            let exact = |i: usize, frame: usize| {
+                (std::f64::consts::TAU * (i as f64 + step * frame as f64) / period).cos()
+            };
+            let mut history: Vec<f64> = (0..n).map(|i| exact(i, 0)).collect();
+            for frame in 1..=60 {
+                history = (0..n)
+                    .map(|i| {
+                        let position = i as f64 + step;
+                        let base = position.floor();
+                        let taps = weights(position - base);
+                        let resampled: f64 = taps
+                            .iter()
+                            .enumerate()
+                            .map(|(k, w)| {
+                                let texel =
+                                    (base as i64 + first_tap + k as i64).rem_euclid(n as i64);
+                                w * history[texel as usize]
+                            })
+                            .sum();
+                        resampled * (1.0 - alpha) + exact(i, frame) * alpha
+                    })
+                    .collect();
+            }
+            let error: f64 = (0..n).map(|i| (history[i] - exact(i, 60)).powi(2)).sum();
+            let signal: f64 = (0..n).map(|i| exact(i, 60).powi(2)).sum();
+            (error / signal).sqrt()
+        };
+        let at_centre = lanczos3_weights(0.0);
+        for (i, w) in at_centre.into_iter().enumerate() {
+            let expected = if i == 2 { 1.0 } else { 0.0 };
+            assert!((w - expected).abs() < 1e-12, "{at_centre:?}");
+        }
+        let lanczos = |f: f64| lanczos3_weights(f).to_vec();
+        let cubic = |f: f64| catmull_rom(f).to_vec();
+        let moving = moving_blend(0.1, 0.7);
+        assert!((moving - 0.17).abs() < 1e-12, "{moving}");
+        for period in [3.0, 4.0, 5.0] {
+            let new = turn(period, -2, &lanczos, 0.1);
+            let old = turn(period, -1, &cubic, 0.1);
+            let faster = turn(period, -2, &lanczos, moving);
+            eprintln!(
+                "a {period}-pixel cosine after 60 frames turning 0.7 pixel a frame: relative \
+                 RMS error Catmull-Rom {old:.3}, Lanczos-3 {new:.3}, Lanczos-3 with the moving \
+                 blend {faster:.3}"
+            );
+            // Measured: 3 pixels 0.43 against 0.73, 4 pixels 0.19 against 0.50, 5 pixels 0.20
+            // against 0.31.
+            assert!(new < 0.67 * old, "{new} vs {old}");
+            assert!(faster < new, "{faster} vs {new}");
+        }
+        // Still, a NaN motion counts as none; the weight never exceeds 1.
+        assert_eq!(moving_blend(0.1, 0.0), 0.1);
+        assert_eq!(moving_blend(0.1, f64::NAN), 0.1);
+        assert_eq!(moving_blend(0.5, 3.0), 1.0);
+        assert_eq!(moving_blend(f64::NAN, 1.0), 1.0);
     }
 
     #[test]

@@ -345,6 +345,9 @@ pub struct MarchLayer {
     /// Offset of the detail-noise look-up, metres, wrapped by [`MarchLayer::detail_scale_m`].
     /// Default 0.
     pub detail_offset_m: [f64; 2],
+    /// Offset of the broad shape warp's look-up ([`shape_warp`]), metres, wrapped by its period
+    /// [`BROAD_WARP_PERIODS`] · [`MarchLayer::shape_scale_m`]. Default 0.
+    pub warp_offset_m: [f64; 2],
     /// Displacement added to the weather look-up per metre above the base (seed 002, "Wind and
     /// Skew"). Like the offsets, a look-up moved by `+d` shows the pattern moved by `−d`: for
     /// clouds whose tops lean downwind set it to `−skew · wind direction` (unit). Default 0.
@@ -383,6 +386,7 @@ impl Default for MarchLayer {
             weather_offset_m: [0.0; 2],
             shape_offset_m: [0.0; 2],
             detail_offset_m: [0.0; 2],
+            warp_offset_m: [0.0; 2],
             skew: [0.0; 2],
             profile: [[0.0; 2]; MAX_PROFILE_POINTS],
             profile_points: 0,
@@ -404,7 +408,7 @@ impl MarchLayer {
         self.profile_points = count as u32;
     }
 
-    /// Sets the weather, shape and detail offsets from one horizontal noise origin in metres,
+    /// Sets the weather, shape, detail and warp offsets from one horizontal noise origin in metres,
     /// f64, along the noise axes: the camera's horizontal position *minus* the distance the wind
     /// has carried the layer (a look-up at `x + d` shows the pattern at `x − d`, so subtracting
     /// the drift makes the clouds move downwind). Each offset is wrapped by its own
@@ -414,6 +418,7 @@ impl MarchLayer {
         self.weather_offset_m = wrap_noise_offset(origin_m, self.weather_scale_m);
         self.shape_offset_m = wrap_noise_offset(origin_m, self.shape_scale_m);
         self.detail_offset_m = wrap_noise_offset(origin_m, self.detail_scale_m);
+        self.warp_offset_m = wrap_noise_offset(origin_m, BROAD_WARP_PERIODS * self.shape_scale_m);
     }
 }
 
@@ -1072,7 +1077,7 @@ pub fn weather_coverage(
     kappa
 }
 
-/// Largest displacement of the base-shape look-up, as a fraction of
+/// Largest displacement of the base-shape look-up by the fine warp, as a fraction of
 /// [`MarchLayer::shape_scale_m`] (500 m at the default 4 km period): see [`shape_warp`].
 ///
 /// The base shape repeats every period, and a ray that grazes a layer crosses tens of periods. Its
@@ -1082,13 +1087,56 @@ pub fn weather_coverage(
 /// renders while the heaps kept round shapes; a quarter swirled and sheared them visibly.
 pub const SHAPE_WARP: f64 = 0.125;
 
-/// Displacement of the base-shape look-up at a point, metres along the noise axes: the weather
-/// noise's curl (channels B and A, each `0.5 + 0.5 · curl / range`) mapped to `±`[`SHAPE_WARP`]
-/// of the shape period, filtered bilinearly from the same four weather texels and at the same
-/// look-up as [`weather_coverage`]. The curl varies over the weather period, which is not a
-/// multiple of the shape period, so consecutive repeats of the shape are displaced differently;
-/// it is periodic in the weather period, so the wrapped weather offset keeps it continuous. WGSL
-/// twin: `shape_warp`.
+/// Largest displacement of the base-shape look-up by the broad warp, as a fraction of
+/// [`MarchLayer::shape_scale_m`] (2 km at the default 4 km period): see [`shape_warp`].
+///
+/// The fine warp follows the weather noise's curl, which varies over a few hundred metres; an
+/// eighth of a period is as far as it can displace the shape before it tears the heaps apart,
+/// and that left a fan of streaks toward the vanishing point where a view looks along a noise
+/// axis over tens of kilometres of cloud (the fine look-up's slope reaches 1.8 at an eighth of
+/// a period and 7 at half a period, folding the shape over itself). The broad warp varies over
+/// [`BROAD_WARP_PERIODS`] shape periods: it reaches 0.42 of a period with a slope of 0.63 at
+/// its steepest (unit test `the_broad_warp_displaces_far_without_folding_the_shape`), so
+/// consecutive periods along a ray are displaced by different amounts while no heap folds.
+pub const SHAPE_WARP_BROAD: f64 = 0.5;
+
+/// Period of the broad warp ([`SHAPE_WARP_BROAD`]), in shape periods (128 km at the default
+/// 4 km): the weather noise's curl looked up over this period, so its finest octave (a sixteenth
+/// of the weather noise) spans two shape periods.
+pub const BROAD_WARP_PERIODS: f64 = 32.0;
+
+/// The weather noise's curl (channels B and A, each `0.5 + 0.5 · curl / range`) as `2c − 1`
+/// per axis, −1 to 1, filtered bilinearly from the four weather texels of `taps`
+/// ([`weather_taps`] per axis). WGSL twin: `curl_look_up`.
+fn curl_look_up(weather: &NoiseTexture2d, taps: [[(i64, f64); 2]; 2]) -> [f64; 2] {
+    let size = i64::from(weather.size.max(1));
+    let mut curl = [0.0; 2];
+    for corner in 0..4_usize {
+        let (x, wx) = taps[0][corner & 1];
+        let (y, wy) = taps[1][corner >> 1];
+        let texel = weather.texels[(x.rem_euclid(size) + size * y.rem_euclid(size)) as usize];
+        for (c, channel) in curl.iter_mut().zip([texel[2], texel[3]]) {
+            *c += wx * wy * (2.0 * unorm8(channel) - 1.0);
+        }
+    }
+    curl
+}
+
+/// Displacement of the base-shape look-up at a point, metres along the noise axes: the sum of
+/// two warps, both from the weather noise's curl ([`curl_look_up`]).
+///
+/// - The fine warp, `±`[`SHAPE_WARP`] of the shape period, is looked up where
+///   [`weather_coverage`] looks (the same four texels): it varies over the weather period, which
+///   is not a multiple of the shape period, so consecutive repeats of the shape are displaced
+///   differently.
+/// - The broad warp, `±`[`SHAPE_WARP_BROAD`] of the shape period, is looked up over
+///   [`BROAD_WARP_PERIODS`] shape periods at `(horizontal + warp_offset) / period`, without
+///   skew: it varies slowly, so it displaces far apart repeats by up to a period without
+///   shearing any one heap.
+///
+/// Both are periodic in their look-up's period, and the wrapped offsets keep them continuous.
+/// Neither depends on the camera, so the view ray, the light march and the shadow map see the
+/// same shapes. WGSL twin: `shape_warp`.
 pub fn shape_warp(
     weather: &NoiseTexture2d,
     layer: &MarchLayer,
@@ -1096,19 +1144,16 @@ pub fn shape_warp(
     height_above_base_m: f64,
 ) -> [f64; 2] {
     let n = weather.size.max(1);
-    let taps = weather_look_up(n, layer, horizontal_m, height_above_base_m);
-    let size = i64::from(n);
-    let amplitude = SHAPE_WARP * layer.shape_scale_m;
-    let mut warp = [0.0; 2];
-    for corner in 0..4_usize {
-        let (x, wx) = taps[0][corner & 1];
-        let (y, wy) = taps[1][corner >> 1];
-        let texel = weather.texels[(x.rem_euclid(size) + size * y.rem_euclid(size)) as usize];
-        for (w, channel) in warp.iter_mut().zip([texel[2], texel[3]]) {
-            *w += wx * wy * (2.0 * unorm8(channel) - 1.0) * amplitude;
-        }
-    }
-    warp
+    let fine = curl_look_up(
+        weather,
+        weather_look_up(n, layer, horizontal_m, height_above_base_m),
+    );
+    let broad_period = BROAD_WARP_PERIODS * layer.shape_scale_m;
+    let broad = curl_look_up(
+        weather,
+        [0, 1].map(|a| weather_taps((horizontal_m[a] + layer.warp_offset_m[a]) / broad_period, n)),
+    );
+    [0, 1].map(|a| (SHAPE_WARP * fine[a] + SHAPE_WARP_BROAD * broad[a]) * layer.shape_scale_m)
 }
 
 /// The fraction of the layer's thickness the profile is stretched over where a cloudy patch is
@@ -2423,30 +2468,23 @@ mod tests {
         );
     }
 
-    #[test]
-    fn the_shape_warp_keeps_repeats_of_the_shape_from_adding_up_to_streaks() {
-        // A grazing ray crosses many periods of the base shape. Unwarped, the optical depth of
-        // each period along a line is the same function of the line's lateral position, so the
-        // sum over periods keeps the lateral contrast of one period: the line pattern of a
-        // single period, drawn toward the vanishing point. The warp displaces each period
-        // differently, so the fine lateral structure of the periods decorrelates and averages
-        // out. Measured on the lateral differences between neighbouring lines, the fine
-        // structure streaks are made of: their spread for the mean over periods, against the
-        // mean spread of single periods (1 unwarped; 1/√5 for five independent periods).
-        //
-        // Coverage 1 and a flat profile leave the shape as the only structure. The shape and
-        // the warp together repeat every lcm(8 km, 20 km) = 40 km, five shape periods. The base
-        // noise has 64 texels (125 m), finer than the shared test textures' 500 m, because a warp
-        // of a few hundred metres cannot decorrelate structure that coarse.
-        static FINE: OnceLock<CloudTextures> = OnceLock::new();
-        let textures = FINE.get_or_init(|| {
-            CloudTextures::from_recipe(&NoiseRecipe {
-                base_size: 64,
-                detail_size: 8,
-                weather_size: 128,
-                ..NoiseRecipe::default()
-            })
-        });
+    /// Lateral streak contrast of `periods` consecutive periods of the base shape, starting
+    /// `first_period` periods from the origin, along lines that run along the noise's x axis:
+    /// the spread of the differences between neighbouring lines (the fine structure streaks are
+    /// made of) for the mean over the periods, against the mean spread of single periods. 1
+    /// means the repeats add up to streaks as strong as one period's structure; `1/√periods`
+    /// means the periods are independent. `warp` scales both warps (0: none).
+    ///
+    /// A grazing ray crosses many periods. Unwarped, the optical depth of each period along a
+    /// line is the same function of the line's lateral position, so the sum over periods keeps
+    /// the lateral contrast of one period: the line pattern of a single period, drawn toward
+    /// the vanishing point. The warps displace each period differently, so the fine lateral
+    /// structure decorrelates and averages out. Coverage 1 and a flat profile leave the shape
+    /// as the only structure. The base noise has 64 texels (125 m), finer than the shared test
+    /// textures' 500 m, because a warp of a few hundred metres cannot decorrelate structure
+    /// that coarse.
+    fn lateral_streak_ratio(first_period: usize, periods: usize, warp: f64) -> f64 {
+        let textures = fine_textures();
         let mut layer = MarchLayer {
             coverage: 1.0,
             ..MarchLayer::default()
@@ -2454,13 +2492,19 @@ mod tests {
         layer.set_profile(&[[0.0, 1.0], [1.0, 1.0]]);
         let altitude = 0.5 * (layer.base_m + layer.top_m);
         let period = layer.shape_scale_m;
-        let (periods, lines, samples) = (5, 64, 64);
-        // Mean base-only extinction of period k along the line at lateral position z.
+        let (lines, samples) = (64, 64);
+        // Mean base-only extinction of period k along the line at lateral position z, with the
+        // warp scaled by `warp`: the shape looked up as `layer_density` does.
         let depth = |k: usize, z: f64| -> f64 {
             (0..samples)
                 .map(|i| {
                     let x = (k as f64 + (i as f64 + 0.5) / samples as f64) * period;
-                    layer_density(textures, &layer, [x, z], altitude, 0.0, false)
+                    if warp == 1.0 {
+                        return layer_density(textures, &layer, [x, z], altitude, 0.0, false);
+                    }
+                    let w = shape_warp(&textures.weather, &layer, [x, z], 0.0).map(|d| d * warp);
+                    let uvw = [(x + w[0]) / period, altitude / period, (z + w[1]) / period];
+                    base_shape(textures.base.sample(uvw, 0.0))
                 })
                 .sum::<f64>()
                 / samples as f64
@@ -2477,22 +2521,105 @@ mod tests {
         let rms = |values: &[f64]| -> f64 {
             (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt()
         };
-        let per_period: Vec<Vec<f64>> = (0..periods).map(fine_structure).collect();
+        let per_period: Vec<Vec<f64>> = (first_period..first_period + periods)
+            .map(fine_structure)
+            .collect();
         let summed: Vec<f64> = (0..lines)
             .map(|j| per_period.iter().map(|p| p[j]).sum::<f64>() / periods as f64)
             .collect();
         let single = per_period.iter().map(|p| rms(p)).sum::<f64>() / periods as f64;
         let ratio = rms(&summed) / single;
         println!(
-            "lateral fine structure: one period {single:.2e}, mean of {periods} periods {:.2e}, \
-             ratio {ratio:.3}",
+            "warp x{warp}, periods {first_period}..{}: lateral fine structure of one period \
+             {single:.2e}, of the mean {:.2e}, ratio {ratio:.3}",
+            first_period + periods,
             rms(&summed)
         );
         assert!(single > 0.0, "the shape noise must vary across the lines");
-        assert!(
-            ratio < 0.9,
-            "repeats of the shape add up to streaks: ratio {ratio:.3}"
+        ratio
+    }
+
+    /// Textures with a 64-texel base noise (125 m texels at an 8 km shape period) and a
+    /// 128-texel weather noise, fine enough to resolve the warps.
+    fn fine_textures() -> &'static CloudTextures {
+        static FINE: OnceLock<CloudTextures> = OnceLock::new();
+        FINE.get_or_init(|| {
+            CloudTextures::from_recipe(&NoiseRecipe {
+                base_size: 64,
+                detail_size: 8,
+                weather_size: 128,
+                ..NoiseRecipe::default()
+            })
+        })
+    }
+
+    /// Largest displacement and steepest slope, both in shape periods per shape period, of a
+    /// curl warp of `amplitude` periods looked up over `look_up_periods` shape periods, from
+    /// central differences on a grid of an eighth of a period over the look-up's whole period.
+    /// A slope of 1 folds the shape over itself.
+    fn curl_warp_extent(amplitude: f64, look_up_periods: f64) -> (f64, f64) {
+        let weather = &fine_textures().weather;
+        let n = weather.size;
+        let warp = |x: f64, z: f64| -> [f64; 2] {
+            let taps = [x, z].map(|c| weather_taps(c / look_up_periods, n));
+            curl_look_up(weather, taps).map(|c| c * amplitude)
+        };
+        let (steps_per_period, h) = (8.0, 1e-3 * look_up_periods);
+        let cells = (look_up_periods * steps_per_period).round() as usize;
+        let (mut largest, mut steepest) = (0.0_f64, 0.0_f64);
+        for i in 0..cells {
+            for j in 0..cells {
+                let (x, z) = (i as f64 / steps_per_period, j as f64 / steps_per_period);
+                let w = warp(x, z);
+                largest = largest.max(w[0].abs()).max(w[1].abs());
+                let (dx0, dx1) = (warp(x + h, z), warp(x - h, z));
+                let (dz0, dz1) = (warp(x, z + h), warp(x, z - h));
+                for a in 0..2 {
+                    steepest = steepest
+                        .max(((dx0[a] - dx1[a]) / (2.0 * h)).abs())
+                        .max(((dz0[a] - dz1[a]) / (2.0 * h)).abs());
+                }
+            }
+        }
+        (largest, steepest)
+    }
+
+    #[test]
+    fn the_broad_warp_displaces_far_without_folding_the_shape() {
+        // The broad warp must reach close to half a period somewhere, so that repeats move by a
+        // whole feature of the shape, and stay below a slope of 1 everywhere. The fine warp at
+        // the same amplitude (the weather look-up of the default 20 km layer, 2.5 shape periods)
+        // is printed for comparison: it would fold the shape.
+        let (largest, steepest) = curl_warp_extent(SHAPE_WARP_BROAD, BROAD_WARP_PERIODS);
+        let (_, fine_steepest) = curl_warp_extent(SHAPE_WARP_BROAD, 2.5);
+        println!(
+            "broad warp: largest {largest:.3} periods, steepest slope {steepest:.3}; the fine \
+             warp's look-up at the same amplitude: steepest slope {fine_steepest:.2}"
         );
+        assert!(
+            largest > 0.4 && largest <= SHAPE_WARP_BROAD,
+            "largest {largest}"
+        );
+        assert!(
+            steepest < 1.0,
+            "the broad warp folds the shape: slope {steepest}"
+        );
+    }
+
+    #[test]
+    fn the_shape_warp_keeps_repeats_of_the_shape_from_adding_up_to_streaks() {
+        // Ten periods along a line, the path of a ray that grazes a layer for 80 km, in three
+        // places: without the warp the mean keeps all of one period's lateral structure (ratio
+        // 1); ten independent periods would leave 1/√10 = 0.32.
+        let unwarped = lateral_streak_ratio(0, 10, 0.0);
+        assert!(unwarped > 0.99, "no warp, no decorrelation: {unwarped:.3}");
+        for first in [0, 10, 25] {
+            let ratio = lateral_streak_ratio(first, 10, 1.0);
+            assert!(
+                ratio < 0.5,
+                "repeats of the shape from period {first} add up to streaks: ratio {ratio:.3}"
+            );
+        }
     }
 
     #[test]
@@ -2792,13 +2919,15 @@ mod tests {
         let mut far = near.clone();
         let origin = [1234.5, -678.25];
         near.set_noise_origin(origin);
-        // A week of 30 m/s wind later, plus whole common periods (40 km): the same noise.
-        let periods = (7.0 * 86_400.0 * 30.0 / 40_000.0_f64).round() * 40_000.0;
+        // A week of 30 m/s wind later, plus whole common periods (1280 km: the weather's 20 km,
+        // the shape's 8 km and the broad warp's 256 km): the same noise.
+        let periods = (7.0 * 86_400.0 * 30.0 / 1_280_000.0_f64).round() * 1_280_000.0;
         far.set_noise_origin([origin[0] + periods, origin[1] - periods]);
         for (a, b) in [
             (near.weather_offset_m, far.weather_offset_m),
             (near.shape_offset_m, far.shape_offset_m),
             (near.detail_offset_m, far.detail_offset_m),
+            (near.warp_offset_m, far.warp_offset_m),
         ] {
             assert!(
                 (a[0] - b[0]).abs() < 1e-6 && (a[1] - b[1]).abs() < 1e-6,

@@ -109,9 +109,10 @@ pub struct VolumetricClouds {
     /// Temporal accumulation: the weight of each new frame in a running average of the jittered
     /// frames (0.02–1; 1 turns it off), reprojected through the camera's motion and clamped to
     /// the new frame's neighbourhood ([`composite`]). A still view averages about `1 / blend`
-    /// frames, which turns the jitter's noise into a converged image. Only with
-    /// [`VolumetricClouds::jitter`] on: without it every frame samples the same points. Default
-    /// 0.1.
+    /// frames, which turns the jitter's noise into a converged image; a pixel whose content
+    /// moved takes `blend · (1 + pixels moved)`, so a turning camera's history blurs less. Only
+    /// with [`VolumetricClouds::jitter`] on: without it every frame samples the same points.
+    /// Default 0.1.
     pub temporal_blend: f32,
     /// Fraction of the view's resolution the light-shaft pass runs at, per axis (0.125–1).
     /// Shafts are soft, so a quarter of the resolution per axis (a sixteenth of the rays) keeps
@@ -160,16 +161,16 @@ pub struct VolumetricClouds {
 }
 
 impl VolumetricClouds {
-    /// The cheapest: [`VolumetricClouds::MEDIUM`]'s half resolution with 256 primary and 16
+    /// The cheapest: [`VolumetricClouds::MEDIUM`]'s half resolution with 256 primary and 20
     /// light steps, a 30 m shortest primary step, 8 haze steps and no light shafts. In the
-    /// `bench` example (160×90, lavapipe, after 32 still frames) it comes within 2.0 % of a
-    /// converged march in noon cumulus, 0.2 % in stratus, 1.7 % in the grazing view, 4.8 % inside
-    /// a cumulus and 5.3 % at sunset, at 0.4–2.9 % of the reference's time, 0.55–0.87 times
+    /// `bench` example (160×90, lavapipe, after 32 still frames) it comes within 1.3 % of a
+    /// converged march in noon cumulus, 0.1 % in stratus, 1.5 % in the grazing view, 2.1 % inside
+    /// a cumulus and 5.0 % at sunset, at 0.4–3.7 % of the reference's time, 0.68–0.80 times
     /// `MEDIUM`'s.
     pub const LOW: Self = Self {
         quality: CloudQuality::Low,
         primary_steps: 256,
-        light_steps: 16,
+        light_steps: 20,
         haze_steps: 8,
         light_shafts: false,
         min_step_m: 30.0,
@@ -183,9 +184,9 @@ impl VolumetricClouds {
     /// new data only every fourth frame. It keeps all scattering octaves: they cost arithmetic
     /// only, and dropping them darkens the clouds (a bias the bench measured at about 40 %
     /// relative error in overcast). In the `bench` example (160×90, lavapipe, after 32
-    /// still frames) it comes within 1.1 % of a converged march in noon cumulus, 0.1 % in
-    /// stratus, 1.1 % in the grazing view, 2.5 % inside a cumulus and 4.7 % at sunset, at
-    /// 0.5–5.2 % of the reference's time.
+    /// still frames) it comes within 1.0 % of a converged march in noon cumulus, 0.1 % in
+    /// stratus, 1.2 % in the grazing view, 1.5 % inside a cumulus and 4.4 % at sunset, at
+    /// 0.5–5.4 % of the reference's time.
     pub const MEDIUM: Self = Self {
         quality: CloudQuality::Medium,
         primary_steps: 384,
@@ -214,12 +215,11 @@ impl VolumetricClouds {
     };
     /// More steps for close-ups and stills: 512 primary and 24 light steps at full resolution,
     /// two light steps per footprint at most beyond those, a 30 m shortest primary step. In the
-    /// `bench` example (160×90, lavapipe) it comes within 1.1 % of a converged march in
-    /// cumulus, 0.1 % in stratus, 1.8 % inside a cumulus, 0.8 % in the grazing view and 1.4 % at
-    /// sunset, at 1.4–12.4 % of the reference's time (12.4 % at sunset). In noon cumulus it is
-    /// no closer than `MEDIUM` (1.08 % against 1.07 %): the rays cross the layer in a few
-    /// kilometres, which the 30 m shortest step marches in fewer than 512 steps (0.77 % with
-    /// 20 m, at 16.7 % of the reference's time at sunset).
+    /// `bench` example (160×90, lavapipe) it comes within 0.8 % of a converged march in
+    /// cumulus, 0.1 % in stratus, 1.1 % inside a cumulus, 0.9 % in the grazing view and 1.7 % at
+    /// sunset, at 1.1–14.9 % of the reference's time (14.9 % at sunset in that run; 12.7 % and
+    /// 13.4 % in two others). The 30 m shortest step keeps its cost down: with 20 m it took 16.7 %
+    /// of the reference's time at sunset (before the broad shape warp).
     pub const HIGH: Self = Self {
         quality: CloudQuality::High,
         primary_steps: 512,

@@ -37,6 +37,14 @@ struct TemporalUniforms {
 @group(0) @binding(6) var<uniform> temporal: TemporalUniforms;
 @group(0) @binding(7) var<uniform> ground: ViewGround;
 
+const PI: f32 = 3.141592653589793;
+
+// Rust: `moving_blend`. The new frame's weight for a pixel whose content moved `motion_px`
+// full-resolution pixels since last frame.
+fn moving_blend(alpha: f32, motion_px: f32) -> f32 {
+    return clamp(alpha * (1.0 + motion_px), 0.0, 1.0);
+}
+
 // Rust: `reproject`.
 fn reproject(direction: vec3<f32>, distance: f32) -> vec3<f32> {
     var point = vec4<f32>(direction * distance, 1.0);
@@ -53,39 +61,73 @@ fn reproject(direction: vec3<f32>, distance: f32) -> vec3<f32> {
     return vec3<f32>(uv, select(0.0, 1.0, inside));
 }
 
-// The history at `uv` with a Catmull-Rom filter: sharper than bilinear, so reprojecting every
-// frame does not blur the clouds. Nine bilinear reads, the middle two texels of each axis
-// merged into one read at their weighted position; negative lobes can overshoot, and the
-// neighbourhood clamp after it bounds that.
+// Rust: `lanczos3_weights`. The weights of the texels at base - 2 ..= base + 3 for a point at
+// `base + fraction`, summing to 1.
+fn lanczos3_weights(fraction: f32) -> array<f32, 6> {
+    var weights = array<f32, 6>();
+    var sum = 0.0;
+    for (var i = 0; i < 6; i++) {
+        let x = abs(f32(i - 2) - fraction);
+        var w = 0.0;
+        if x < 1e-4 {
+            w = 1.0;
+        } else if x < 3.0 {
+            let p = PI * x;
+            w = 3.0 * sin(p) * sin(p / 3.0) / (p * p);
+        }
+        weights[i] = w;
+        sum += w;
+    }
+    for (var i = 0; i < 6; i++) {
+        weights[i] /= sum;
+    }
+    return weights;
+}
+
+// The history at `uv` with a Lanczos-3 filter (a sinc windowed to three texels either side):
+// reprojecting every frame resamples the history every frame, and the loss compounds, so the
+// filter must keep detail a few pixels across. After 60 frames of a camera turning 0.7 pixel a
+// frame at a blend of 0.1, a 4-pixel cosine is 50 % off with Catmull-Rom (4 taps) and 19 % with
+// this filter (`lanczos3_keeps_detail_through_a_turning_camera`). 6 x 6 texels in 5 x 5
+// bilinear reads: the middle two of each axis, both weights positive, merged into one read at
+// their weighted position. The negative lobes can overshoot; the neighbourhood clamp after it
+// bounds that, and the physical range at the end.
 fn sample_history(uv: vec2<f32>) -> vec4<f32> {
     let size = vec2<f32>(textureDimensions(history));
     let position = uv * size - 0.5;
     let base = floor(position);
     let f = position - base;
-    // Catmull-Rom weights of the texels at base - 1, base, base + 1, base + 2.
-    let w0 = f * (-0.5 + f * (1.0 - 0.5 * f));
-    let w1 = 1.0 + f * f * (-2.5 + 1.5 * f);
-    let w2 = f * (0.5 + f * (2.0 - 1.5 * f));
-    let w3 = f * f * (-0.5 + 0.5 * f);
-    let w12 = w1 + w2;
-    let offset12 = w2 / max(w12, vec2<f32>(1e-6));
-    let t0 = (base - 0.5) / size;
-    let t12 = (base + 0.5 + offset12) / size;
-    let t3 = (base + 2.5) / size;
+    let wx6 = lanczos3_weights(f.x);
+    let wy6 = lanczos3_weights(f.y);
+    // Texel offsets -2, -1, {0, 1}, 2, 3 from `base`, as texture coordinates and weights.
+    var xs = array<f32, 5>();
+    var ys = array<f32, 5>();
+    var wx = array<f32, 5>();
+    var wy = array<f32, 5>();
+    for (var i = 0; i < 5; i++) {
+        let from_base = f32(select(i - 2, i - 1, i > 2));
+        xs[i] = (base.x + from_base + 0.5) / size.x;
+        ys[i] = (base.y + from_base + 0.5) / size.y;
+        wx[i] = wx6[select(i, i + 1, i > 2)];
+        wy[i] = wy6[select(i, i + 1, i > 2)];
+    }
+    let middle_x = wx6[2] + wx6[3];
+    let middle_y = wy6[2] + wy6[3];
+    xs[2] = (base.x + 0.5 + wx6[3] / max(middle_x, 1e-6)) / size.x;
+    ys[2] = (base.y + 0.5 + wy6[3] / max(middle_y, 1e-6)) / size.y;
+    wx[2] = middle_x;
+    wy[2] = middle_y;
     var sum = vec4<f32>(0.0);
-    var weight = 0.0;
-    let xs = array<f32, 3>(t0.x, t12.x, t3.x);
-    let ys = array<f32, 3>(t0.y, t12.y, t3.y);
-    let wx = array<f32, 3>(w0.x, w12.x, w3.x);
-    let wy = array<f32, 3>(w0.y, w12.y, w3.y);
-    for (var j = 0; j < 3; j++) {
-        for (var i = 0; i < 3; i++) {
-            let w = wx[i] * wy[j];
-            sum += w * textureSampleLevel(history, history_sampler, vec2<f32>(xs[i], ys[j]), 0.0);
-            weight += w;
+    for (var j = 0; j < 5; j++) {
+        for (var i = 0; i < 5; i++) {
+            sum += wx[i] * wy[j]
+                * textureSampleLevel(history, history_sampler, vec2<f32>(xs[i], ys[j]), 0.0);
         }
     }
-    return sum / weight;
+    // Radiance is never negative and transmittance within 0-1; the lobes' overshoot at a hard
+    // edge would otherwise leave a pixel the march did not visit (temporal upsampling: no
+    // clamp) just below 0.
+    return clamp(sum, vec4<f32>(0.0), vec4<f32>(FAR_AWAY, FAR_AWAY, FAR_AWAY, 1.0));
 }
 
 @fragment
@@ -147,6 +189,7 @@ fn temporal_resolve(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
     }
     let old = sample_history(previous.xy);
     let kept = mix(old, clamp(old, lo, hi), proximity);
-    let alpha = clamp(temporal.blend, 0.0, 1.0) * proximity;
+    let motion = length((previous.xy - in.uv) * view.viewport.zw);
+    let alpha = moving_blend(temporal.blend, motion) * proximity;
     return mix(kept, current, alpha);
 }

@@ -179,6 +179,8 @@ struct CloudLayerGpu {
     far_count: u32,
     // Rust: `MarchLayer::coverage_height`.
     coverage_height: f32,
+    // Rust: `MarchLayer::warp_offset_m`.
+    warp_offset_m: vec2<f32>,
     weather_offset_m: vec4<f32>,
     noise_offset_m: vec4<f32>,
     profile: array<vec4<f32>, 4>,
@@ -246,6 +248,8 @@ const PATCH_AREA_GAIN: f32 = 2.5;
 const BROKEN_PATCH_AREA: f32 = 0.75;
 const CLOSING_COVERAGE: f32 = 0.75;
 const SHAPE_WARP: f32 = 0.125;
+const SHAPE_WARP_BROAD: f32 = 0.5;
+const BROAD_WARP_PERIODS: f32 = 32.0;
 // Below this optical thickness `mean_step_transmittance` uses its series (Rust: SERIES_LIMIT,
 // 1e-5 there because f64 has expm1).
 const SERIES_LIMIT: f32 = 0.1;
@@ -558,13 +562,10 @@ fn weather_coverage(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_
     return mix(mix(k00, k10, weight.x), mix(k01, k11, weight.x), weight.y);
 }
 
-// Displacement (metres) of the base-shape look-up: the weather noise's curl (B, A) mapped to
-// +-SHAPE_WARP of the shape period, filtered bilinearly from texel loads at the look-up
-// `weather_coverage` uses, so consecutive repeats of the shape are displaced differently and do
-// not add up to streaks along grazing rays. Rust: `shape_warp`.
-fn shape_warp(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_base_m: f32) -> vec2<f32> {
+// The weather noise's curl (B, A) as 2c - 1 per axis, filtered bilinearly from texel loads at
+// texel coordinate `x` (texel centres at integers). Rust: `curl_look_up`.
+fn curl_look_up(x: vec2<f32>) -> vec2<f32> {
     let size = vec2<i32>(textureDimensions(weather_noise));
-    let x = weather_look_up(layer, horizontal_m, height_above_base_m);
     let cell = floor(x);
     let weight = x - cell;
     // True modulo on integers, so negative indices repeat too.
@@ -574,8 +575,19 @@ fn shape_warp(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_base_m
     let c10 = textureLoad(weather_noise, vec2<i32>(t1.x, t0.y), 0).zw;
     let c01 = textureLoad(weather_noise, vec2<i32>(t0.x, t1.y), 0).zw;
     let c11 = textureLoad(weather_noise, t1, 0).zw;
-    let curl = mix(mix(c00, c10, weight.x), mix(c01, c11, weight.x), weight.y);
-    return (2.0 * curl - 1.0) * (SHAPE_WARP * layer.shape_scale_m);
+    return 2.0 * mix(mix(c00, c10, weight.x), mix(c01, c11, weight.x), weight.y) - 1.0;
+}
+
+// Displacement (metres) of the base-shape look-up, so repeats of the shape do not add up to
+// streaks along grazing rays: the fine warp, +-SHAPE_WARP of the shape period from the curl at
+// the look-up `weather_coverage` uses, plus the broad warp, +-SHAPE_WARP_BROAD of the period
+// from the curl over BROAD_WARP_PERIODS shape periods (no skew). Rust: `shape_warp`.
+fn shape_warp(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_base_m: f32) -> vec2<f32> {
+    let fine = curl_look_up(weather_look_up(layer, horizontal_m, height_above_base_m));
+    let size = f32(textureDimensions(weather_noise).x);
+    let broad_uv = (horizontal_m + layer.warp_offset_m) / (BROAD_WARP_PERIODS * layer.shape_scale_m);
+    let broad = curl_look_up(broad_uv * size - 0.5);
+    return (SHAPE_WARP * fine + SHAPE_WARP_BROAD * broad) * layer.shape_scale_m;
 }
 
 // Extinction (1/m) of one layer at horizontal coordinates `horizontal_m` (along

@@ -611,6 +611,7 @@ pub struct GpuCloudLayer {
     profile_count: u32,
     far_count: u32,
     coverage_height: f32,
+    warp_offset_m: Vec2,
     weather_offset_m: Vec4,
     noise_offset_m: Vec4,
     profile: [Vec4; 4],
@@ -653,6 +654,7 @@ impl From<&MarchLayer> for GpuCloudLayer {
             profile_count: layer.profile_points,
             far_count: layer.far_count.min(MAX_FAR_COVERAGES as u32),
             coverage_height: layer.coverage_height as f32,
+            warp_offset_m: Vec2::new(layer.warp_offset_m[0] as f32, layer.warp_offset_m[1] as f32),
             weather_offset_m: Vec4::new(
                 layer.weather_offset_m[0] as f32,
                 layer.weather_offset_m[1] as f32,
