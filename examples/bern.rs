@@ -756,7 +756,7 @@ fn apply_view(
     terrain: Res<Terrain>,
     far: Res<FarForecasts>,
     mut source: ResMut<WeatherSource>,
-    mut cameras: Query<(Entity, &mut Transform), With<MainCamera>>,
+    mut cameras: Query<(Entity, &mut Transform, Option<&mut VolumetricClouds>), With<MainCamera>>,
 ) {
     if !view.is_changed() {
         return;
@@ -768,7 +768,12 @@ fn apply_view(
     source.far = vec![FarForecast {
         forecast: far.0[index].clone(),
     }];
-    for (camera, mut transform) in &mut cameras {
+    for (camera, mut transform, clouds) in &mut cameras {
+        // Another viewpoint (or the free camera's start) is a camera cut: the clouds'
+        // temporal accumulation starts over instead of fading the old view out.
+        if let Some(mut clouds) = clouds {
+            clouds.reset_history = true;
+        }
         if view.free {
             // Metres per second: the scene is 100 km across.
             commands.entity(camera).insert(FreeCamera {

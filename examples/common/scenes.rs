@@ -33,9 +33,13 @@ impl Scene {
     /// Puts the scene into `world`: moves `camera` and gives it the settings, aims the `sun`
     /// light, and replaces every `CloudLayer` entity with the scene's layers.
     pub fn apply(&self, world: &mut World, camera: Entity, sun: Entity) {
-        world
-            .entity_mut(camera)
-            .insert((self.camera, self.settings.clone()));
+        // A new scene is a camera cut: the temporal accumulation starts over, so no earlier
+        // scene's clouds linger in this one's first frames.
+        let settings = VolumetricClouds {
+            reset_history: true,
+            ..self.settings.clone()
+        };
+        world.entity_mut(camera).insert((self.camera, settings));
         world
             .entity_mut(sun)
             .insert(Transform::default().looking_to(-sun_direction(self.sun_deg), Vec3::Y));

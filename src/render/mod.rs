@@ -158,6 +158,13 @@ pub struct VolumetricClouds {
     /// for one compute thread per texel and layer each frame. Clamped to the device's largest
     /// texture (at most 8192); below 2 turns the map off. Default 512.
     pub weather_map_size: u32,
+    /// Set to true to make the temporal accumulation start over this frame: the frame is
+    /// marched as if there were no history, which drops what the previous frames showed. Use it
+    /// at a camera cut (a jump to another viewpoint, other layers): otherwise the old view's
+    /// history is reprojected into the new one and fades over about `1 / temporal_blend`
+    /// frames, clamped only to the new frame's noisy neighbourhood. The plugin sets it back to
+    /// false once the frame is extracted, like `TemporalAntiAliasing::reset`. Default false.
+    pub reset_history: bool,
 }
 
 impl VolumetricClouds {
@@ -212,6 +219,7 @@ impl VolumetricClouds {
         min_step_m: 20.0,
         light_steps_per_footprint: 1.0,
         weather_map_size: crate::reference::weather_map::DEFAULT_WEATHER_MAP_SIZE,
+        reset_history: false,
     };
     /// More steps for close-ups and stills: 512 primary and 24 light steps at full resolution,
     /// two light steps per footprint at most beyond those, a 30 m shortest primary step. In the

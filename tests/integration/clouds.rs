@@ -912,6 +912,58 @@ fn temporal_accumulation_converges_and_follows_the_camera() {
     );
 }
 
+/// A camera cut: with `VolumetricClouds::reset_history` (which `Scene::apply` sets) the first
+/// frame after the cut is that frame's march alone, as close to its CPU twin as one jittered
+/// frame is (`blue_noise_jitter_matches_the_cpu_reference`); without it the previous scene's
+/// history (overcast stratus at the same pose) is reprojected into the new one and outweighs
+/// the new frame. The flag lasts one frame.
+#[test]
+fn a_history_reset_drops_the_previous_scene() {
+    let size = UVec2::new(64, 36);
+    let (textures, mut rig) = small_rig(size);
+    let mut cumulus = jittered_noon_cumulus();
+    cumulus.settings.temporal_blend = 0.1;
+    let mut overcast = cumulus.clone();
+    overcast.layers = showcase_scenes().remove(1).layers;
+    let cut = |rig: &mut CloudRig, reset: bool| {
+        rig.set_scene(&overcast);
+        rig.app.run_frames(16);
+        rig.set_scene(&cumulus);
+        rig.app
+            .world()
+            .get_mut::<VolumetricClouds>(rig.camera)
+            .unwrap()
+            .reset_history = reset;
+        let (gpu_l, _) = rig.render(1);
+        let (cpu_l, _) = rig.reference(&textures);
+        let error = relative_rmse(&gpu_l, &cpu_l);
+        (gpu_l, cpu_l, error)
+    };
+    let (kept_l, _, kept) = cut(&mut rig, false);
+    let (reset_l, cpu_l, reset) = cut(&mut rig, true);
+    let cleared = !rig
+        .app
+        .world()
+        .get::<VolumetricClouds>(rig.camera)
+        .unwrap()
+        .reset_history;
+    save_strip(
+        &output_dir().join("clouds_history_reset_kept_reset_cpu.png"),
+        size,
+        &[&kept_l, &reset_l, &cpu_l],
+    );
+    eprintln!(
+        "first frame after a cut from overcast to cumulus, against its CPU twin: history kept \
+         {kept:.4}, history reset {reset:.4}"
+    );
+    assert!(reset <= 0.03, "with the reset {reset}");
+    assert!(kept > 5.0 * reset, "without the reset {kept} vs {reset}");
+    assert!(
+        cleared,
+        "reset_history is set back to false after the frame"
+    );
+}
+
 /// At half resolution the temporal accumulation upsamples: each frame's rays go through
 /// another full-resolution pixel of their texel, so a still view converges to detail finer than
 /// the march's texels. Without it the accumulation converges to the bilinear upsample of the

@@ -28,9 +28,10 @@
 //! frame's camera ([`ViewPose::clip_from_relative`], composed in f64 relative to this frame's
 //! camera); the history is read with a Lanczos-3 filter, and a pixel whose content moved takes
 //! more of the new frame ([`moving_blend`]), so reprojecting every frame does not blur what the
-//! camera turns past. The `copy` entry of `upsample.wgsl` then composites the new history onto the view. The
-//! history starts over when the view's size changes or a frame was skipped. The method and the
-//! CPU twin of its arithmetic are in [`crate::reference::composite`].
+//! camera turns past. The `copy` entry of `upsample.wgsl` then composites the new history onto
+//! the view. The history starts over when the view's size changes, when a frame was skipped, and
+//! when the camera's [`VolumetricClouds::reset_history`] is set (a camera cut). The method and
+//! the CPU twin of its arithmetic are in [`crate::reference::composite`].
 //!
 //! At a reduced resolution the accumulation also upsamples ([`TemporalUpsampling`]): each
 //! frame the march's rays go through the centre of another of the full-resolution pixels each
@@ -46,6 +47,7 @@
 //!
 //! [`VolumetricClouds::temporal_blend`]: super::VolumetricClouds::temporal_blend
 //! [`moving_blend`]: crate::reference::composite::moving_blend
+//! [`VolumetricClouds::reset_history`]: super::VolumetricClouds::reset_history
 //!
 //! [`VolumetricClouds::resolution_scale`]: super::VolumetricClouds::resolution_scale
 //! [`VolumetricClouds::light_shaft_resolution_scale`]: super::VolumetricClouds::light_shaft_resolution_scale
@@ -517,7 +519,9 @@ pub(crate) fn prepare_composite_targets(
                 },
             );
             let valid = previous
-                .filter(|p| p.size == full && p.frame.wrapping_add(1) == frame.0)
+                .filter(|p| {
+                    !view.reset_history && p.size == full && p.frame.wrapping_add(1) == frame.0
+                })
                 .map(|p| p.pose);
             let mut uniforms = UniformBuffer::from(GpuTemporalUniforms {
                 previous_clip_from_relative: valid

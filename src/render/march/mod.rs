@@ -54,7 +54,7 @@ use bevy::{
     math::DVec3,
     prelude::*,
     render::{
-        Extract, ExtractSchedule, Render, RenderApp, RenderStartup, RenderSystems,
+        Extract, ExtractSchedule, MainWorld, Render, RenderApp, RenderStartup, RenderSystems,
         diagnostic::RecordDiagnostics,
         render_asset::RenderAssets,
         render_resource::{
@@ -128,7 +128,13 @@ impl Plugin for CloudMarchPlugin {
         embedded_asset!(app, "march.wgsl");
         app.sub_app_mut(RenderApp)
             .init_resource::<CloudPassStats>()
-            .add_systems(ExtractSchedule, extract_cloud_views);
+            .add_systems(
+                ExtractSchedule,
+                (
+                    extract_cloud_views,
+                    clear_history_resets.after(extract_cloud_views),
+                ),
+            );
     }
 
     fn finish(&self, app: &mut App) {
@@ -700,6 +706,8 @@ pub struct ExtractedCloudView {
     /// Where this frame's reduced-resolution rays pass through their texels (none without the
     /// temporal accumulation or at full resolution).
     pub upsampling: TemporalUpsampling,
+    /// [`VolumetricClouds::reset_history`]: the temporal accumulation starts over this frame.
+    pub reset_history: bool,
 }
 
 /// How many times the march pass ran, for diagnostics and tests (render world).
@@ -779,7 +787,19 @@ fn extract_cloud_views(
                 settings.effective_resolution_scale(),
                 frame.0,
             ),
+            reset_history: settings.reset_history,
         });
+    }
+}
+
+/// Sets [`VolumetricClouds::reset_history`] back to false in the main world once
+/// [`extract_cloud_views`] has seen it, so a reset lasts one frame.
+fn clear_history_resets(mut main_world: ResMut<MainWorld>) {
+    let mut cameras = main_world.query::<&mut VolumetricClouds>();
+    for mut settings in cameras.iter_mut(&mut main_world) {
+        if settings.reset_history {
+            settings.reset_history = false;
+        }
     }
 }
 
