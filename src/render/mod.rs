@@ -172,8 +172,8 @@ impl VolumetricClouds {
     /// light steps, a 30 m shortest primary step, 8 haze steps and no light shafts. In the
     /// `bench` example (160×90, lavapipe, after 32 still frames) it comes within 1.3 % of a
     /// converged march in noon cumulus, 0.1 % in stratus, 1.5 % in the grazing view, 2.1 % inside
-    /// a cumulus and 5.0 % at sunset, at 0.4–3.7 % of the reference's time, 0.68–0.80 times
-    /// `MEDIUM`'s.
+    /// a cumulus and 5.0 % at sunset, at 0.4–3.1 % of the reference's time, 0.65–0.86 times
+    /// `MEDIUM`'s (one run; 3.7 % at sunset in another).
     pub const LOW: Self = Self {
         quality: CloudQuality::Low,
         primary_steps: 256,
@@ -193,7 +193,7 @@ impl VolumetricClouds {
     /// relative error in overcast). In the `bench` example (160×90, lavapipe, after 32
     /// still frames) it comes within 1.0 % of a converged march in noon cumulus, 0.1 % in
     /// stratus, 1.2 % in the grazing view, 1.5 % inside a cumulus and 4.4 % at sunset, at
-    /// 0.5–5.4 % of the reference's time.
+    /// 0.5–4.7 % of the reference's time.
     pub const MEDIUM: Self = Self {
         quality: CloudQuality::Medium,
         primary_steps: 384,
@@ -225,8 +225,8 @@ impl VolumetricClouds {
     /// two light steps per footprint at most beyond those, a 30 m shortest primary step. In the
     /// `bench` example (160×90, lavapipe) it comes within 0.8 % of a converged march in
     /// cumulus, 0.1 % in stratus, 1.1 % inside a cumulus, 0.9 % in the grazing view and 1.7 % at
-    /// sunset, at 1.1–14.9 % of the reference's time (14.9 % at sunset in that run; 12.7 % and
-    /// 13.4 % in two others). The 30 m shortest step keeps its cost down: with 20 m it took 16.7 %
+    /// sunset, at 1.1–11.9 % of the reference's time (11.9 % at sunset in that run; 11.7–14.9 %
+    /// in four others). The 30 m shortest step keeps its cost down: with 20 m it took 16.7 %
     /// of the reference's time at sunset (before the broad shape warp).
     pub const HIGH: Self = Self {
         quality: CloudQuality::High,
