@@ -97,31 +97,21 @@ fn sample_history(uv: vec2<f32>) -> vec4<f32> {
     let position = uv * size - 0.5;
     let base = floor(position);
     let f = position - base;
-    let wx6 = lanczos3_weights(f.x);
-    let wy6 = lanczos3_weights(f.y);
-    // Texel offsets -2, -1, {0, 1}, 2, 3 from `base`, as texture coordinates and weights.
-    var xs = array<f32, 5>();
-    var ys = array<f32, 5>();
-    var wx = array<f32, 5>();
-    var wy = array<f32, 5>();
-    for (var i = 0; i < 5; i++) {
-        let from_base = f32(select(i - 2, i - 1, i > 2));
-        xs[i] = (base.x + from_base + 0.5) / size.x;
-        ys[i] = (base.y + from_base + 0.5) / size.y;
-        wx[i] = wx6[select(i, i + 1, i > 2)];
-        wy[i] = wy6[select(i, i + 1, i > 2)];
-    }
-    let middle_x = wx6[2] + wx6[3];
-    let middle_y = wy6[2] + wy6[3];
-    xs[2] = (base.x + 0.5 + wx6[3] / max(middle_x, 1e-6)) / size.x;
-    ys[2] = (base.y + 0.5 + wy6[3] / max(middle_y, 1e-6)) / size.y;
-    wx[2] = middle_x;
-    wy[2] = middle_y;
+    let lx = lanczos3_weights(f.x);
+    let ly = lanczos3_weights(f.y);
+    let mx = lx[2] + lx[3];
+    let my = ly[2] + ly[3];
+    // Per axis, the five reads' offsets from `base` (texels) and weights: texels -2 and -1, the
+    // merged pair 0 and 1, then 2 and 3.
+    let ox = array<f32, 5>(-2.0, -1.0, lx[3] / max(mx, 1e-6), 2.0, 3.0);
+    let oy = array<f32, 5>(-2.0, -1.0, ly[3] / max(my, 1e-6), 2.0, 3.0);
+    let wx = array<f32, 5>(lx[0], lx[1], mx, lx[4], lx[5]);
+    let wy = array<f32, 5>(ly[0], ly[1], my, ly[4], ly[5]);
     var sum = vec4<f32>(0.0);
     for (var j = 0; j < 5; j++) {
         for (var i = 0; i < 5; i++) {
-            sum += wx[i] * wy[j]
-                * textureSampleLevel(history, history_sampler, vec2<f32>(xs[i], ys[j]), 0.0);
+            let at = (base + 0.5 + vec2<f32>(ox[i], oy[j])) / size;
+            sum += wx[i] * wy[j] * textureSampleLevel(history, history_sampler, at, 0.0);
         }
     }
     // Radiance is never negative and transmittance within 0-1; the lobes' overshoot at a hard
