@@ -144,7 +144,6 @@ const REFERENCE_STEPS: u32 = 512;
 /// early exit.
 fn reference_settings(steps: u32) -> VolumetricClouds {
     VolumetricClouds {
-        quality: CloudQuality::Custom,
         primary_steps: steps,
         light_steps: 64,
         transmittance_cutoff: 0.0,
@@ -477,6 +476,7 @@ fn error_budget(scene: &Scene) {
             ..VolumetricClouds::MEDIUM
         };
         let (march, layers) = march_inputs(
+            &CloudWorld::default(),
             &settings,
             &GlobalTransform::from(scene.camera),
             f64::from(fov) / f64::from(h),

@@ -576,10 +576,16 @@ fn spawn_scene(
     ));
     spawn_ground(&mut commands, &terrain, &mut meshes, &mut materials);
 
-    let planet_radius_m = terrain_settings()
-        .planet_radius_m
-        .unwrap_or(VolumetricClouds::MEDIUM.planet_radius_m as f64)
-        as f32;
+    // The layers' altitudes count from Bern's ground, on the terrain's planet, which curves
+    // around the scene origin.
+    commands.insert_resource(CloudWorld {
+        ground_height_m: BERN_GROUND_M,
+        planet_radius_m: terrain_settings()
+            .planet_radius_m
+            .unwrap_or(CloudWorld::EARTH.planet_radius_m as f64) as f32,
+        anchor: PlanetAnchor::Geocentric,
+        ..default()
+    });
     let camera = commands
         .spawn((
             Name::new("camera"),
@@ -601,12 +607,7 @@ fn spawn_scene(
             },
             Tonemapping::AcesFitted,
             Bloom::NATURAL,
-            VolumetricClouds {
-                // The layers' altitudes count from Bern's ground, on the terrain's planet.
-                ground_height_m: BERN_GROUND_M,
-                planet_radius_m,
-                ..VolumetricClouds::MEDIUM
-            },
+            VolumetricClouds::MEDIUM,
             MainCamera,
             // Headless, the camera renders to an image: UI goes there too.
             IsDefaultUiCamera,
@@ -643,7 +644,6 @@ fn spawn_scene(
         Viewpoint::ALL.map(|viewpoint| asset_server.load(viewpoint.far_forecast()));
     commands.insert_resource(WeatherSource::load(
         &asset_server,
-        GeoOrigin::default(),
         NEAR_FORECAST,
         [view.viewpoint.far_forecast().into()],
     ));

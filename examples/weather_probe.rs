@@ -27,8 +27,9 @@
 use std::process::ExitCode;
 
 use bevy_cloudscape::{
+    scene::UtcInstant,
     sky::{Observer, SolarOptions, solar_position},
-    weather::{Forecast, Sampler, UtcInstant, WeatherState, layers_for_weather},
+    weather::{Forecast, Sampler, WeatherState, layers_for_weather},
 };
 use serde_json::{Value, json};
 

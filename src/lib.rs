@@ -7,8 +7,10 @@
 //!
 //! | stage | module | what it does |
 //! |---|---|---|
+//! | place and time | [`scene`] | [`scene::UtcInstant`], [`scene::Place`], the scene's [`scene::GeoOrigin`] and [`scene::SceneClock`]: what the weather and the sky both read |
 //! | weather | [`weather`] | meteoblue / Open-Meteo files to a [`weather::Forecast`], sampled into a [`weather::WeatherState`] |
-//! | sky | [`sky`] | the scene clock, and where the sun is for a place and a UTC instant (NREL SPA) |
+//! | sky | [`sky`] | where the sun is for a place and a UTC instant (NREL SPA), and the light it aims |
+//! | world | [`world`] | [`world::CloudWorld`]: the planet, its anchoring, the cloud noise and phase function, shared by every camera |
 //! | layers | [`layers`] | [`layers::CloudLayer`]: altitude, coverage, density, kind and profile, wind |
 //! | CPU reference | [`reference`](mod@reference) | f64 twins of the GPU noise, march and shadow map: the truth the GPU is tested against, and CPU queries |
 //! | noise | [`render::noise`] | compute pass filling tileable 3D cloud-noise textures once |
@@ -29,9 +31,12 @@ pub mod layers;
 pub mod precipitation;
 pub mod reference;
 pub mod render;
+pub mod scene;
 pub mod sky;
 pub mod terrain;
+mod validation;
 pub mod weather;
+pub mod world;
 
 /// Everything a game needs to add clouds, in one import.
 pub mod prelude {
@@ -46,11 +51,12 @@ pub mod prelude {
         noise::{CloudNoisePlugin, CloudNoiseSettings},
         shadow::{CloudShadowPlugin, CloudShadows},
     };
-    pub use crate::sky::{ClockMode, SceneClock, SkyPlugin, Sun};
+    pub use crate::scene::{ClockMode, GeoOrigin, SceneClock, UtcInstant};
+    pub use crate::sky::{SkyPlugin, Sun};
     pub use crate::weather::{
-        CurrentWeather, Forecast, GeoOrigin, LayerSlot, UtcInstant, WeatherPlugin, WeatherSource,
-        spawn_weather_layers,
+        CurrentWeather, Forecast, LayerSlot, WeatherPlugin, WeatherSource, spawn_weather_layers,
     };
+    pub use crate::world::{CloudWorld, PlanetAnchor};
     pub use crate::{CloudscapePlugin, CloudscapeSystems};
 }
 
@@ -77,10 +83,10 @@ impl PluginGroup for CloudscapePlugin {
 }
 
 /// Where the crate's main-world systems run in `Update`, in this order. Order your own systems
-/// against them, e.g. set the [`sky::SceneClock`] `.before(CloudscapeSystems::Clock)`.
+/// against them, e.g. set the [`scene::SceneClock`] `.before(CloudscapeSystems::Clock)`.
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum CloudscapeSystems {
-    /// Advances the [`sky::SceneClock`].
+    /// Advances the [`scene::SceneClock`].
     Clock,
     /// Samples the [`weather::WeatherSource`] forecasts into [`weather::CurrentWeather`].
     Weather,
@@ -90,12 +96,12 @@ pub enum CloudscapeSystems {
     Sun,
 }
 
-/// Orders the [`CloudscapeSystems`] sets.
+/// Orders the [`CloudscapeSystems`] sets, and reports values the renderer cannot draw as given.
 struct SchedulePlugin;
 
 impl Plugin for SchedulePlugin {
     fn build(&self, app: &mut App) {
-        app.configure_sets(
+        app.add_plugins(validation::plugin).configure_sets(
             Update,
             (
                 CloudscapeSystems::Clock,

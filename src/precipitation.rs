@@ -43,7 +43,7 @@ use bevy::{
 
 use crate::{
     CloudscapeSystems,
-    layers::CloudLayer,
+    layers::{CloudLayer, rain::marshall_palmer_slope},
     render::VolumetricClouds,
     weather::{CurrentWeather, Variable},
 };
@@ -112,11 +112,6 @@ pub struct PrecipitationState {
     pub fall_speed_m_s: f32,
 }
 
-/// Marshall–Palmer slope `Λ = 4.1 R^(−0.21)`, 1/mm.
-fn marshall_palmer_slope(rate_mm_per_h: f32) -> f32 {
-    4.1 * rate_mm_per_h.powf(-0.21)
-}
-
 /// Concentration of raindrops of 1 mm diameter and more, per m³, at `rate_mm_per_h` (Marshall &
 /// Palmer 1948): `(N₀ / Λ) e^(−Λ)`. 0 for no or invalid rain.
 #[must_use]
@@ -126,21 +121,6 @@ pub fn large_drop_concentration(rate_mm_per_h: f32) -> f32 {
     }
     let slope = marshall_palmer_slope(rate_mm_per_h);
     8000.0 / slope * (-slope).exp()
-}
-
-/// Extinction coefficient of rain falling at `rate_mm_per_h`, 1/m: geometric optics (extinction
-/// efficiency 2) over the Marshall–Palmer drop sizes,
-/// `σ = 2 ∫ (π D² / 4) N₀ e^(−ΛD) dD = π N₀ / Λ³`, which is `0.365 R^0.63` per km (a visibility
-/// of about 11 km at 1 mm/h, 2.5 km at 10 mm/h). 0 for no or invalid rain. The march draws it as
-/// rain shafts under raining layers (see `render::march`).
-#[must_use]
-pub fn rain_extinction_per_m(rate_mm_per_h: f32) -> f32 {
-    if rate_mm_per_h.is_nan() || rate_mm_per_h <= 0.0 || !rate_mm_per_h.is_finite() {
-        return 0.0;
-    }
-    let slope = marshall_palmer_slope(rate_mm_per_h);
-    // N₀ = 8000 m⁻³ mm⁻¹; D in mm, so mm² per m³ → 1e-6 per m.
-    std::f32::consts::PI * 8000.0 / slope.powi(3) * 1.0e-6
 }
 
 /// What falls at `rate_mm_per_h` (water equivalent) with `snow_fraction` (0–1) of it snow. See
@@ -427,17 +407,6 @@ mod tests {
         // Marshall–Palmer counts of drops ≥ 1 mm: about 32 /m³ at 1 mm/h, 260 at 10 mm/h.
         assert!((large_drop_concentration(1.0) - 32.3).abs() < 1.0);
         assert!((large_drop_concentration(10.0) - 261.0).abs() < 10.0);
-    }
-
-    #[test]
-    fn rain_extinction_follows_the_marshall_palmer_power_law() {
-        assert_eq!(rain_extinction_per_m(0.0), 0.0);
-        assert_eq!(rain_extinction_per_m(f32::NAN), 0.0);
-        let at_1 = rain_extinction_per_m(1.0);
-        assert!((at_1 - 3.65e-4).abs() < 0.05e-4, "{at_1}");
-        // σ ∝ Λ⁻³ ∝ R^0.63.
-        let ratio = rain_extinction_per_m(10.0) / at_1;
-        assert!((ratio - 10f32.powf(0.63)).abs() < 0.01, "{ratio}");
     }
 
     #[test]

@@ -12,6 +12,7 @@ use bevy::{
     prelude::*,
     render::render_resource::TextureFormat,
 };
+use bevy_cloudscape::layers::LayerDrift;
 use bevy_cloudscape::{
     prelude::*,
     reference::{
@@ -23,7 +24,7 @@ use bevy_cloudscape::{
     },
     render::{
         composite::low_res_size,
-        march::{CloudPassStats, ExtractedCloudView, LayerDrift},
+        march::{CloudPassStats, ExtractedCloudView},
     },
 };
 

@@ -25,7 +25,8 @@ pub mod weather_map;
 
 use bevy::{camera::Hdr, core_pipeline::prepass::DepthPrepass, prelude::*};
 
-/// Named quality presets of [`VolumetricClouds`]; `Custom` once a knob differs from a preset.
+/// Named quality presets of [`VolumetricClouds`], as [`VolumetricClouds::quality`] tells them;
+/// `Custom` once a knob differs from every preset.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Reflect)]
 pub enum CloudQuality {
     /// [`VolumetricClouds::LOW`].
@@ -45,13 +46,13 @@ pub enum CloudQuality {
 /// stops at scene geometry) and HDR (the clouds are composited before tonemapping).
 ///
 /// Start from a preset ([`VolumetricClouds::MEDIUM`] is the default) and change knobs; every
-/// knob is live-editable.
+/// knob is live-editable. These are quality knobs only: what the clouds are (the planet, the
+/// noise scales, the phase function) is the [`CloudWorld`](crate::world::CloudWorld) resource,
+/// shared by every camera.
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
 #[reflect(Component, Default)]
 #[require(DepthPrepass, Hdr)]
 pub struct VolumetricClouds {
-    /// Which preset these knobs came from (informational).
-    pub quality: CloudQuality,
     /// Steps along the view ray through each layer interval (1–1024). Default 384 (`LOW` 256,
     /// `HIGH` 512, `ULTRA` 768).
     pub primary_steps: u32,
@@ -78,24 +79,6 @@ pub struct VolumetricClouds {
     /// through another of the pixels each texel stands for, and a still view converges to the
     /// full resolution ([`composite::TemporalUpsampling`]). Default 0.5 (`HIGH`, `ULTRA`: 1).
     pub resolution_scale: f32,
-    /// Radius of the planet the layers are shells around, metres. Default 6 371 000 (Earth's
-    /// mean radius).
-    pub planet_radius_m: f32,
-    /// Scene y of the ground the layer altitudes are measured from, metres; the planet's
-    /// centre is at `(0, ground_height_m − planet_radius_m, 0)`. Default 0.
-    pub ground_height_m: f32,
-    /// Period of the base (shape) noise, metres. Default 4 000 m.
-    pub shape_scale_m: f32,
-    /// Period of the detail (erosion) noise, metres. Default 700 m.
-    pub detail_scale_m: f32,
-    /// How much the detail noise erodes cloud edges (0–0.9). Default 0.35.
-    pub detail_erosion: f32,
-    /// Forward lobe of the dual-lobe Henyey-Greenstein phase function (−1–1). Default 0.8.
-    pub phase_g_forward: f32,
-    /// Backward lobe (−1–1). Default −0.3.
-    pub phase_g_back: f32,
-    /// Weight of the backward lobe (0–1). Default 0.2.
-    pub phase_blend: f32,
     /// Steps of the haze march along each view ray (1–128; [`haze`]). Default 16 (`LOW` 8,
     /// `HIGH` 24, `ULTRA` 48). Costs nothing while [`haze::Haze`] is clear.
     pub haze_steps: u32,
@@ -175,7 +158,6 @@ impl VolumetricClouds {
     /// a cumulus and 5.0 % at sunset, at 0.4–3.1 % of the reference's time, 0.65–0.86 times
     /// `MEDIUM`'s (one run; 3.7 % at sunset in another).
     pub const LOW: Self = Self {
-        quality: CloudQuality::Low,
         primary_steps: 256,
         light_steps: 20,
         haze_steps: 8,
@@ -195,7 +177,6 @@ impl VolumetricClouds {
     /// stratus, 1.2 % in the grazing view, 1.5 % inside a cumulus and 4.4 % at sunset, at
     /// 0.5–4.7 % of the reference's time.
     pub const MEDIUM: Self = Self {
-        quality: CloudQuality::Medium,
         primary_steps: 384,
         light_steps: 24,
         step_growth: 2.0e-5,
@@ -203,14 +184,6 @@ impl VolumetricClouds {
         multiple_scattering_octaves: 4,
         jitter: true,
         resolution_scale: 0.5,
-        planet_radius_m: 6_371_000.0,
-        ground_height_m: 0.0,
-        shape_scale_m: 4_000.0,
-        detail_scale_m: 700.0,
-        detail_erosion: 0.35,
-        phase_g_forward: 0.8,
-        phase_g_back: -0.3,
-        phase_blend: 0.2,
         haze_steps: 16,
         light_shafts: true,
         temporal_blend: 0.1,
@@ -229,7 +202,6 @@ impl VolumetricClouds {
     /// in four others). The 30 m shortest step keeps its cost down: with 20 m it took 16.7 %
     /// of the reference's time at sunset (before the broad shape warp).
     pub const HIGH: Self = Self {
-        quality: CloudQuality::High,
         primary_steps: 512,
         light_steps: 24,
         resolution_scale: 1.0,
@@ -241,7 +213,6 @@ impl VolumetricClouds {
     /// Many steps: screenshots and references. 768 primary and 32 light steps, every sample's
     /// sun from the light march, 5 m shortest step, early exit at a view transmittance of 0.002.
     pub const ULTRA: Self = Self {
-        quality: CloudQuality::Ultra,
         primary_steps: 768,
         light_steps: 32,
         resolution_scale: 1.0,
@@ -252,6 +223,110 @@ impl VolumetricClouds {
         light_steps_per_footprint: f32::INFINITY,
         ..Self::MEDIUM
     };
+}
+
+impl VolumetricClouds {
+    /// The preset these settings are, or [`CloudQuality::Custom`] when a knob differs from every
+    /// preset ([`VolumetricClouds::reset_history`] aside).
+    #[must_use]
+    pub fn quality(&self) -> CloudQuality {
+        let knobs = Self {
+            reset_history: false,
+            ..self.clone()
+        };
+        [
+            (Self::LOW, CloudQuality::Low),
+            (Self::MEDIUM, CloudQuality::Medium),
+            (Self::HIGH, CloudQuality::High),
+            (Self::ULTRA, CloudQuality::Ultra),
+        ]
+        .into_iter()
+        .find_map(|(preset, quality)| (preset == knobs).then_some(quality))
+        .unwrap_or(CloudQuality::Custom)
+    }
+
+    /// The settings of a preset; [`VolumetricClouds::MEDIUM`] for [`CloudQuality::Custom`].
+    #[must_use]
+    pub const fn preset(quality: CloudQuality) -> Self {
+        match quality {
+            CloudQuality::Low => Self::LOW,
+            CloudQuality::High => Self::HIGH,
+            CloudQuality::Ultra => Self::ULTRA,
+            CloudQuality::Medium | CloudQuality::Custom => Self::MEDIUM,
+        }
+    }
+
+    /// A cleaned copy that the renderer can trust; see [`VolumetricClouds::sanitize`].
+    #[must_use]
+    pub fn sanitized(&self) -> Self {
+        let mut clean = self.clone();
+        clean.sanitize();
+        clean
+    }
+
+    /// Cleans the settings in place so that the renderer can trust them. The renderer draws
+    /// the cleaned copy, and a `warn!` names each field it changes (once per camera and field).
+    /// Each field is fixed as follows, and anything not listed is kept:
+    ///
+    /// - `primary_steps`: clamped to 1–1024; `light_steps`: at most 64;
+    ///   `multiple_scattering_octaves`: clamped to 1–8; `haze_steps`: clamped to 1–128;
+    ///   `weather_map_size`: at most 8192.
+    /// - `step_growth`: a negative or non-finite value becomes 0 (even steps).
+    /// - `transmittance_cutoff`: clamped to 0–1; NaN becomes the default 0.01.
+    /// - `resolution_scale`: clamped to 0.25–1; NaN becomes 1.
+    /// - `light_shaft_resolution_scale`: clamped to 0.125–1; NaN becomes 0.25.
+    /// - `temporal_blend`: clamped to 0.02–1; NaN becomes 1 (no accumulation).
+    /// - `sun_from_shadow_map_m`: NaN becomes `f32::INFINITY` (never); a negative value 0.
+    /// - `min_step_m`: a negative or non-finite value becomes 0 (every primary step marched).
+    ///
+    /// `light_steps_per_footprint` takes any value (NaN, 0 or less, or infinity: no limit).
+    pub fn sanitize(&mut self) {
+        use crate::reference::{
+            haze::MAX_HAZE_STEPS,
+            render::{MAX_LIGHT_STEPS, MAX_PRIMARY_STEPS, MAX_SCATTERING_OCTAVES},
+            weather_map::MAX_WEATHER_MAP_SIZE,
+        };
+        let defaults = Self::MEDIUM;
+        let clamp_or = |value: f32, min: f32, max: f32, default: f32| {
+            if value.is_nan() {
+                default
+            } else {
+                value.clamp(min, max)
+            }
+        };
+        let non_negative = |value: f32| {
+            if value.is_finite() {
+                value.max(0.0)
+            } else {
+                0.0
+            }
+        };
+
+        self.primary_steps = self.primary_steps.clamp(1, MAX_PRIMARY_STEPS);
+        self.light_steps = self.light_steps.min(MAX_LIGHT_STEPS);
+        self.multiple_scattering_octaves = self
+            .multiple_scattering_octaves
+            .clamp(1, MAX_SCATTERING_OCTAVES);
+        self.haze_steps = self.haze_steps.clamp(1, MAX_HAZE_STEPS);
+        self.weather_map_size = self.weather_map_size.min(MAX_WEATHER_MAP_SIZE);
+        self.step_growth = non_negative(self.step_growth);
+        self.transmittance_cutoff = clamp_or(
+            self.transmittance_cutoff,
+            0.0,
+            1.0,
+            defaults.transmittance_cutoff,
+        );
+        self.resolution_scale = clamp_or(self.resolution_scale, 0.25, 1.0, 1.0);
+        self.light_shaft_resolution_scale =
+            clamp_or(self.light_shaft_resolution_scale, 0.125, 1.0, 0.25);
+        self.temporal_blend = clamp_or(self.temporal_blend, 0.02, 1.0, 1.0);
+        self.sun_from_shadow_map_m = if self.sun_from_shadow_map_m.is_nan() {
+            f32::INFINITY
+        } else {
+            self.sun_from_shadow_map_m.max(0.0)
+        };
+        self.min_step_m = non_negative(self.min_step_m);
+    }
 }
 
 impl VolumetricClouds {
@@ -290,5 +365,82 @@ impl VolumetricClouds {
 impl Default for VolumetricClouds {
     fn default() -> Self {
         Self::MEDIUM
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `field` set to each of `given` is cleaned to the matching `used`.
+    fn check<T: Copy + std::fmt::Debug + PartialEq>(
+        field: impl Fn(&mut VolumetricClouds) -> &mut T,
+        cases: &[(T, T)],
+    ) {
+        for &(given, used) in cases {
+            let mut clouds = VolumetricClouds::default();
+            *field(&mut clouds) = given;
+            let mut clean = clouds.sanitized();
+            assert_eq!(*field(&mut clean), used, "{given:?}");
+        }
+    }
+
+    #[test]
+    fn quality_names_the_preset_the_knobs_are() {
+        for quality in [
+            CloudQuality::Low,
+            CloudQuality::Medium,
+            CloudQuality::High,
+            CloudQuality::Ultra,
+        ] {
+            let mut clouds = VolumetricClouds::preset(quality);
+            assert_eq!(clouds.quality(), quality);
+            clouds.reset_history = true;
+            assert_eq!(clouds.quality(), quality, "a reset is not a knob");
+        }
+        let custom = VolumetricClouds {
+            primary_steps: 100,
+            ..default()
+        };
+        assert_eq!(custom.quality(), CloudQuality::Custom);
+    }
+
+    #[test]
+    fn sanitizing_repairs_every_field() {
+        let nan = f32::NAN;
+        let inf = f32::INFINITY;
+        check(|c| &mut c.primary_steps, &[(0, 1), (5000, 1024), (64, 64)]);
+        check(|c| &mut c.light_steps, &[(0, 0), (65, 64)]);
+        check(|c| &mut c.multiple_scattering_octaves, &[(0, 1), (9, 8)]);
+        check(|c| &mut c.haze_steps, &[(0, 1), (500, 128)]);
+        check(|c| &mut c.weather_map_size, &[(0, 0), (10_000, 8192)]);
+        check(
+            |c| &mut c.step_growth,
+            &[(-1.0, 0.0), (nan, 0.0), (inf, 0.0)],
+        );
+        check(
+            |c| &mut c.transmittance_cutoff,
+            &[(nan, 0.01), (-1.0, 0.0), (2.0, 1.0)],
+        );
+        check(
+            |c| &mut c.resolution_scale,
+            &[(nan, 1.0), (0.1, 0.25), (3.0, 1.0)],
+        );
+        check(
+            |c| &mut c.light_shaft_resolution_scale,
+            &[(nan, 0.25), (0.0, 0.125), (2.0, 1.0)],
+        );
+        check(
+            |c| &mut c.temporal_blend,
+            &[(nan, 1.0), (0.0, 0.02), (5.0, 1.0)],
+        );
+        check(
+            |c| &mut c.sun_from_shadow_map_m,
+            &[(nan, inf), (-5.0, 0.0), (inf, inf)],
+        );
+        check(
+            |c| &mut c.min_step_m,
+            &[(-5.0, 0.0), (nan, 0.0), (inf, 0.0)],
+        );
     }
 }

@@ -1,44 +1,45 @@
-//! The sky over the scene: the scene time, and where the sun is for a place and a UTC instant.
+//! The sky over the scene: where the sun is for a place and a UTC instant.
 //!
 //! - [`solar_position`] implements NREL's Solar Position Algorithm (Reda & Andreas 2004),
 //!   checked against the paper's worked example and against published ephemeris tables; see
 //!   [`solar`].
-//! - [`SceneClock`] is the instant the scene shows: live (wall clock or a chosen instant) or
-//!   play (scrubbed, paused, sped up).
 //! - A `DirectionalLight` with the [`Sun`] component is aimed from the true solar position for
-//!   the [`WeatherSource`](crate::weather::WeatherSource) origin at that instant, and dims to
+//!   the [`GeoOrigin`](crate::scene::GeoOrigin) at the [`SceneClock`]'s instant, and dims to
 //!   nothing as the sun's disc sets.
 
-mod clock;
 pub mod light;
 pub mod solar;
 mod sun;
 
 use bevy::prelude::*;
 
-pub use clock::{ClockMode, SceneClock};
 pub use solar::{
     Observer, SolarOptions, SolarPosition, direction_enu, estimate_delta_t_s, julian_day,
     solar_position, solar_position_unix_seconds,
 };
 pub use sun::{Sun, SunPosition, sun_direction_scene, sun_visibility};
 
-use crate::CloudscapeSystems;
+use crate::{
+    CloudscapeSystems,
+    scene::{GeoOrigin, SceneClock, advance_scene_clock},
+};
 
-/// The scene clock and the sun; part of [`crate::CloudscapePlugin`].
+/// The scene clock, the scene origin and the sun; part of [`crate::CloudscapePlugin`].
 #[derive(Debug, Default, Clone, Copy)]
 pub struct SkyPlugin;
 
 impl Plugin for SkyPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<SceneClock>()
+            .init_resource::<GeoOrigin>()
             .init_resource::<SunPosition>()
             .register_type::<SceneClock>()
+            .register_type::<GeoOrigin>()
             .register_type::<Sun>()
             .add_systems(
                 Update,
                 (
-                    clock::advance_scene_clock.in_set(CloudscapeSystems::Clock),
+                    advance_scene_clock.in_set(CloudscapeSystems::Clock),
                     sun::place_sun.in_set(CloudscapeSystems::Sun),
                 ),
             );

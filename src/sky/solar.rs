@@ -11,7 +11,7 @@
 //!
 //! Cost: a few hundred trigonometric evaluations, about 10 µs; compute it once per frame at most.
 
-use crate::weather::{Place, UtcInstant};
+use crate::scene::{GeoOrigin, Place, UtcInstant};
 
 /// A point on Earth for solar position (WGS 84).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -681,6 +681,17 @@ const NUTATION: [NutationTerm; 63] = [
     ([0, 0, 3, 2, 2], -3.0, 0.0, 0.0, 0.0),
     ([2, -1, 0, 2, 2], -3.0, 0.0, 0.0, 0.0),
 ];
+
+impl From<&GeoOrigin> for Observer {
+    /// The scene origin as an observer for the solar position.
+    fn from(origin: &GeoOrigin) -> Self {
+        Self {
+            latitude_deg: origin.latitude_deg,
+            longitude_deg: origin.longitude_deg,
+            elevation_m: origin.elevation_m,
+        }
+    }
+}
 
 #[cfg(test)]
 mod tests {

@@ -2,15 +2,12 @@
 
 use bevy::{light::light_consts::lux, prelude::*};
 
-use super::{
-    SceneClock,
-    solar::{SolarOptions, SolarPosition, solar_position_unix_seconds},
-};
-use crate::weather::{GeoOrigin, WeatherSource};
+use super::solar::{Observer, SolarOptions, SolarPosition, solar_position_unix_seconds};
+use crate::scene::{GeoOrigin, SceneClock};
 
 /// Put on a `DirectionalLight` to have the crate aim it from the sun's true position for the
-/// [`WeatherSource`] origin (or [`GeoOrigin::default`], Bern, without one) at the [`SceneClock`]
-/// time, and set its illuminance.
+/// [`GeoOrigin`] (or [`GeoOrigin::default`], Bern, without one) at the [`SceneClock`] time, and
+/// set its illuminance.
 #[derive(Component, Debug, Clone, Copy, PartialEq, Reflect)]
 #[reflect(Component, Default)]
 pub struct Sun {
@@ -50,13 +47,13 @@ pub fn sun_visibility(elevation_deg: f64) -> f32 {
 
 pub(crate) fn place_sun(
     clock: Res<SceneClock>,
-    source: Option<Res<WeatherSource>>,
+    origin: Option<Res<GeoOrigin>>,
     mut position: ResMut<SunPosition>,
     mut suns: Query<(&Sun, &mut Transform, &mut DirectionalLight)>,
 ) {
-    let origin = source.map_or_else(GeoOrigin::default, |s| s.origin);
+    let origin = origin.map_or_else(GeoOrigin::default, |origin| *origin);
     let solar = solar_position_unix_seconds(
-        &origin.observer(),
+        &Observer::from(&origin),
         clock.unix_seconds(),
         &SolarOptions::default(),
     );
@@ -82,10 +79,10 @@ mod tests {
 
     #[test]
     fn direction_follows_azimuth_and_elevation() {
-        let bern = GeoOrigin::default().observer();
+        let bern = Observer::from(&GeoOrigin::default());
         // Bern, 2021-06-21 11:30 UTC: near the June solstice culmination (local noon ≈ 11:28
         // UTC), so the sun stands due south at 90 − (46.948 − 23.44) ≈ 66.5°.
-        let noon = crate::weather::UtcInstant::from_civil(2021, 6, 21, 11, 30, 0).unwrap();
+        let noon = crate::scene::UtcInstant::from_civil(2021, 6, 21, 11, 30, 0).unwrap();
         let p = solar_position_unix_seconds(
             &bern,
             noon.unix_seconds() as f64,

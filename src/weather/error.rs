@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
-use super::time::UtcInstant;
+use crate::scene::UtcInstant;
 
 /// Why a forecast file could not be turned into a [`Forecast`](super::Forecast).
 ///

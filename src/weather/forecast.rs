@@ -11,27 +11,12 @@ use super::error::ForecastError;
 use super::meteoblue::MeteoblueFile;
 use super::open_meteo::OpenMeteoFile;
 use super::raw::RawTime;
-use super::time::UtcInstant;
 use super::units::{Linear, Quantity};
+use crate::scene::{Place, UtcInstant};
 
 /// A forecast variable's values, one per entry of [`Forecast::times`]; `None` where the file has
 /// `null` (a gap that sampling bridges or reports, never a silent zero).
 pub type Series = Vec<Option<f32>>;
-
-/// A place on Earth (WGS 84).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Place {
-    /// Name for display, e.g. `"Bern"`; meteoblue's `metadata.name`, otherwise the file stem when
-    /// read with [`Forecast::from_path`], otherwise empty.
-    pub name: String,
-    /// Latitude in degrees, north positive, −90 to 90.
-    pub latitude_deg: f64,
-    /// Longitude in degrees, east positive, −180 to 180.
-    pub longitude_deg: f64,
-    /// Ground elevation above mean sea level in metres (meteoblue `metadata.height`, Open-Meteo
-    /// `elevation`); 0 when the file does not say, with a note in [`Forecast::warnings`].
-    pub elevation_m: f64,
-}
 
 /// The file formats [`Forecast`] reads (`shared/formats/meteoblue.md`, `open-meteo.md`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

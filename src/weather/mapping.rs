@@ -25,7 +25,7 @@
 //! | `convective_precipitation` | Convective: present, coverage, rain; Low: kind | a cumulonimbus layer appears at ≥ 1 mm/h (or on a thunder code); coverage = 0.15 + 0.45 · max(1 − e^(−rate/5 mm/h), low cover) | an hourly, grid-mean shower rate of 1 mm/h means intense local cells |
 //! | `pictocode` / WMO `weather_code` | Convective, Fog, Low: kind | thunder 10–12, 27–30 (WMO 95–99) → cumulonimbus; fog 16–18 (WMO 45, 48) → fog coverage ≥ 0.8 and stratus; showers 31–32 (WMO 80–86) → cumulus; steady precipitation 23–26, 33–35 (WMO 51–77) → stratus | the codes say what the model's variables only imply (`shared/formats/meteoblue.md`) |
 //! | `fog_probability` | Fog: coverage | coverage = (p − 0.2) / 0.8, clamped to 0–1 | below 20 % the fog would be noise on a clear view |
-//! | `visibility` | Fog: coverage, density; [`Haze`](crate::render::haze::Haze) | coverage from 0 at 5 km (mist) to 1 at 1 km (fog), faded out by rain; density = 3.912 / min(visibility, 1 km). Haze visibility = max(visibility, 5 km) | Koschmieder: a 2 % contrast threshold gives σ = ln 50 / V = 3.912 / V; WMO fog is visibility < 1 km; above 5 km the air is haze, not fog |
+//! | `visibility` | Fog: coverage, density; [`Haze`](crate::layers::Haze) | coverage from 0 at 5 km (mist) to 1 at 1 km (fog), faded out by rain; density = 3.912 / min(visibility, 1 km). Haze visibility = max(visibility, 5 km) | Koschmieder: a 2 % contrast threshold gives σ = ln 50 / V = 3.912 / V; WMO fog is visibility < 1 km; above 5 km the air is haze, not fog |
 //! | `precipitation` | all but High: `precipitation`, `rain_mm_per_h`; Mid: thickness | darkening = 1 − e^(−rate/2.5 mm/h); rain goes to the lowest covered layer (the cumulonimbus takes the convective part); raining altostratus thickens downward by up to 1 km | 2.5 mm/h is where AMS "light" rain ends (moderate darkens 63 %); seed 000 §6.2: precipitation drives cloud colour and the rain particles |
 //! | `windspeed`, `winddirection` (10 m) | every layer without level wind: wind | v(z) = v₁₀ · (z / 10 m)^(1/7) at the layer's mid-height | the 1/7 power law (Hellmann; Peterson & Hennessey 1978) |
 //! | wind at 850 / 700 / 500 / 300 hPa | Low / Mid / High / Convective: wind | Low 850 hPa; Mid interpolated between 700 and 500 hPa by height; High 300 hPa; Convective: the mean of all levels | the air at cloud altitude carries the cloud; a storm moves with the mean 850–300 hPa wind (its steering flow) |
@@ -825,7 +825,7 @@ impl MappedWeather {
     /// the rest of the extinction (so the two never count the same air twice). `None` when the
     /// forecast has no usable visibility: the haze keeps its previous value.
     ///
-    /// [`Haze::visibility_m`]: crate::render::haze::Haze::visibility_m
+    /// [`Haze::visibility_m`]: crate::layers::Haze::visibility_m
     #[must_use]
     pub fn haze_visibility_m(&self) -> Option<f32> {
         let floor = if self.mapping.mist_visibility_m.is_finite() {
@@ -1258,7 +1258,7 @@ pub(crate) fn map_weather_onto_layers(
     forecasts: Res<Assets<super::Forecast>>,
     source: Option<Res<super::WeatherSource>>,
     mut layers: Query<(&LayerSlot, &mut CloudLayer)>,
-    haze: Option<ResMut<crate::render::haze::Haze>>,
+    haze: Option<ResMut<crate::layers::Haze>>,
     mut last_warnings: Local<Vec<String>>,
 ) {
     if !current.is_changed() && !mapping.as_ref().is_some_and(|m| m.is_changed()) {
@@ -1338,7 +1338,8 @@ pub(crate) fn map_weather_onto_layers(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::weather::{LevelState, UtcInstant};
+    use crate::scene::UtcInstant;
+    use crate::weather::LevelState;
 
     const BERN_M: f32 = 540.0;
 
@@ -1352,7 +1353,8 @@ mod tests {
 
     #[test]
     fn far_places_set_far_coverage_on_weather_driven_layers() {
-        use crate::weather::{CurrentWeather, Place, PlaceWeather};
+        use crate::scene::Place;
+        use crate::weather::{CurrentWeather, PlaceWeather};
         let place = |name: &str, position: Vec3, state: WeatherState| PlaceWeather {
             place: Place {
                 name: name.into(),
@@ -1423,8 +1425,9 @@ mod tests {
 
     #[test]
     fn visibility_sets_the_haze_and_a_gap_keeps_it() {
-        use crate::render::haze::Haze;
-        use crate::weather::{CurrentWeather, Place, PlaceWeather};
+        use crate::layers::Haze;
+        use crate::scene::Place;
+        use crate::weather::{CurrentWeather, PlaceWeather};
         let place = |state: WeatherState| PlaceWeather {
             place: Place {
                 name: "Bern".into(),

@@ -16,12 +16,12 @@ use serde::Deserialize;
 
 use super::error::ForecastError;
 use super::forecast::{
-    Forecast, ForecastBuilder, ForecastFormat, LevelField, Place, Target, Variable, check_scalar,
+    Forecast, ForecastBuilder, ForecastFormat, LevelField, Target, Variable, check_scalar,
     level_from_key,
 };
 use super::raw::{ColumnFilter, RawBlock};
-use super::time::UtcInstant;
 use super::units::{Linear, Quantity};
+use crate::scene::{Place, UtcInstant};
 
 /// The top level of a meteoblue file. Only the keys read here are declared; serde skips the rest
 /// (`data_day`, `data_xmin`, `data_current`, …).

@@ -48,7 +48,6 @@ mod open_meteo;
 mod raw;
 mod sample;
 mod source;
-mod time;
 mod units;
 
 use bevy::prelude::*;
@@ -56,7 +55,7 @@ use bevy::prelude::*;
 use crate::CloudscapeSystems;
 
 pub use error::ForecastError;
-pub use forecast::{Forecast, ForecastFormat, Place, PressureLevel, Series, Variable};
+pub use forecast::{Forecast, ForecastFormat, PressureLevel, Series, Variable};
 pub use mapping::{
     CloudBand, CloudBands, InputFault, LayerSlot, MAPPING_TABLE, MappedWeather, MappingRow,
     MappingWarning, WeatherLayers, WeatherMapping, layers_for_weather, map_weather,
@@ -66,10 +65,7 @@ pub use sample::{
     DEFAULT_MAX_BRIDGE_S, DataEdge, LevelState, STANDARD_LEVELS_HPA, SampleWarning, Sampler,
     VariableSet, WeatherState,
 };
-pub use source::{
-    CurrentWeather, FarForecast, ForecastLoader, GeoOrigin, PlaceWeather, WeatherSource,
-};
-pub use time::{CivilDateTime, TimeParseError, UtcInstant};
+pub use source::{CurrentWeather, FarForecast, ForecastLoader, PlaceWeather, WeatherSource};
 
 /// Forecast assets, their loader, the per-frame sampling of the [`WeatherSource`] into
 /// [`CurrentWeather`], and the mapping of that weather onto [`LayerSlot`] layers; part of

@@ -16,11 +16,12 @@ use serde::Deserialize;
 
 use super::error::ForecastError;
 use super::forecast::{
-    Forecast, ForecastBuilder, ForecastFormat, LevelField, Place, Target, Variable, check_scalar,
+    Forecast, ForecastBuilder, ForecastFormat, LevelField, Target, Variable, check_scalar,
     level_from_key,
 };
 use super::raw::{ColumnFilter, RawBlock};
 use super::units::{Linear, Quantity};
+use crate::scene::Place;
 
 /// The top level of one Open-Meteo location. `daily`, `current`, `minutely_15` and any other key
 /// are skipped.

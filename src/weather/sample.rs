@@ -4,7 +4,7 @@
 use std::fmt;
 
 use super::forecast::{Forecast, PressureLevel, Series, Variable};
-use super::time::UtcInstant;
+use crate::scene::UtcInstant;
 
 /// Default longest gap between valid values that sampling bridges: 3 hours, in seconds.
 pub const DEFAULT_MAX_BRIDGE_S: f64 = 3.0 * 3600.0;
@@ -792,7 +792,7 @@ fn sample_level_at(level: &PressureLevel, position: &Position, max_bridge: f64) 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::weather::Place;
+    use crate::scene::Place;
 
     const HOUR: i64 = 3600;
     const T0: i64 = 1_620_000_000; // 2021-05-03T00:00:00Z

@@ -11,8 +11,8 @@ use bevy::{
     prelude::*,
 };
 
-use super::{Forecast, ForecastError, Place, SampleWarning, Sampler, WeatherState};
-use crate::sky::{SceneClock, solar::Observer};
+use super::{Forecast, ForecastError, SampleWarning, Sampler, WeatherState};
+use crate::scene::{GeoOrigin, Place, SceneClock};
 
 /// Reads meteoblue and Open-Meteo JSON files into [`Forecast`] assets (format detected).
 #[derive(Debug, Default, Clone, Copy, TypePath)]
@@ -52,64 +52,6 @@ impl AssetLoader for ForecastLoader {
     }
 }
 
-/// A geographic point that becomes the scene origin: scene metres are measured on the local
-/// tangent plane there, +X east, +Y up, −Z north.
-#[derive(Debug, Clone, Copy, PartialEq, Reflect)]
-pub struct GeoOrigin {
-    /// Latitude, degrees north. Default 46.948 (Bern).
-    pub latitude_deg: f64,
-    /// Longitude, degrees east. Default 7.447 (Bern).
-    pub longitude_deg: f64,
-    /// Height of the scene's y = 0 above sea level, metres. Default 0: scene y is altitude.
-    pub elevation_m: f64,
-}
-
-impl Default for GeoOrigin {
-    fn default() -> Self {
-        Self {
-            latitude_deg: 46.948,
-            longitude_deg: 7.447,
-            elevation_m: 0.0,
-        }
-    }
-}
-
-/// WGS 84 semi-major axis, metres.
-const WGS84_A_M: f64 = 6_378_137.0;
-/// WGS 84 first eccentricity squared.
-const WGS84_E2: f64 = 6.694_379_990_14e-3;
-
-impl GeoOrigin {
-    /// Scene position (metres; +X east, −Z north, +Y up) of a geographic point.
-    ///
-    /// Uses the local tangent plane with the WGS 84 radii of curvature at the origin (meridional
-    /// `M` for north, prime vertical `N cos φ` for east). At 50 km from the origin the distance
-    /// error from neglecting the curvature of the meridians is under 0.1 % — well inside a weather
-    /// cell — which is why a full ECEF→ENU transform is not needed at this scale.
-    pub fn to_scene(&self, latitude_deg: f64, longitude_deg: f64, elevation_m: f64) -> Vec3 {
-        let phi = self.latitude_deg.to_radians();
-        let w = 1.0 - WGS84_E2 * phi.sin().powi(2);
-        let prime_vertical = WGS84_A_M / w.sqrt();
-        let meridional = WGS84_A_M * (1.0 - WGS84_E2) / w.powf(1.5);
-        let east = prime_vertical * phi.cos() * (longitude_deg - self.longitude_deg).to_radians();
-        let north = meridional * (latitude_deg - self.latitude_deg).to_radians();
-        Vec3::new(
-            east as f32,
-            (elevation_m - self.elevation_m) as f32,
-            -north as f32,
-        )
-    }
-
-    /// The origin as an observer for the solar position.
-    pub fn observer(&self) -> Observer {
-        Observer {
-            latitude_deg: self.latitude_deg,
-            longitude_deg: self.longitude_deg,
-            elevation_m: self.elevation_m,
-        }
-    }
-}
-
 /// A forecast for a place other than the scene origin (seed 000 §4.4–4.5: Solothurn or
 /// Fribourg on the horizon while Bern fills the foreground).
 #[derive(Debug, Clone, Reflect)]
@@ -122,7 +64,7 @@ pub struct FarForecast {
 ///
 /// The near forecast fills the foreground; each far forecast shows toward its own place, blended
 /// in space by the weather map (its position comes from the file's latitude and longitude through
-/// [`GeoOrigin::to_scene`]). Without a near forecast the weather stage does nothing and layers
+/// [`GeoOrigin::to_scene`] of the [`GeoOrigin`] resource). Without a near forecast the weather stage does nothing and layers
 /// keep their hand-set values.
 #[derive(Resource, Debug, Clone, Default, Reflect)]
 #[reflect(Resource)]
@@ -131,15 +73,12 @@ pub struct WeatherSource {
     pub near: Option<Handle<Forecast>>,
     /// Forecasts for distant places.
     pub far: Vec<FarForecast>,
-    /// The geographic point at the scene origin; also the observer for the sun.
-    pub origin: GeoOrigin,
 }
 
 impl WeatherSource {
     /// A source that loads `near` and each of `far` through the asset server.
     pub fn load<'a>(
         asset_server: &AssetServer,
-        origin: GeoOrigin,
         near: impl Into<AssetPath<'a>>,
         far: impl IntoIterator<Item = AssetPath<'a>>,
     ) -> Self {
@@ -151,7 +90,6 @@ impl WeatherSource {
                     forecast: asset_server.load(path),
                 })
                 .collect(),
-            origin,
         }
     }
 }
@@ -214,6 +152,7 @@ fn report(place: &str, warning: &SampleWarning) {
 /// Samples every forecast of the [`WeatherSource`] at the scene time.
 pub(crate) fn sample_weather(
     source: Option<Res<WeatherSource>>,
+    origin: Option<Res<GeoOrigin>>,
     clock: Res<SceneClock>,
     forecasts: Res<Assets<Forecast>>,
     mut current: ResMut<CurrentWeather>,
@@ -222,9 +161,10 @@ pub(crate) fn sample_weather(
     let Some(source) = source else {
         return;
     };
+    let origin = origin.map_or_else(GeoOrigin::default, |origin| *origin);
     let t = clock.unix_seconds();
     if let Some(near) = &source.near
-        && let Some(sampled) = sample_place(&forecasts, near, &mut samplers.near, &source.origin, t)
+        && let Some(sampled) = sample_place(&forecasts, near, &mut samplers.near, &origin, t)
     {
         current.near = Some(sampled);
     }
@@ -236,7 +176,7 @@ pub(crate) fn sample_weather(
         .zip(&mut samplers.far)
         .zip(&mut current.far)
     {
-        if let Some(sampled) = sample_place(&forecasts, &far.forecast, sampler, &source.origin, t) {
+        if let Some(sampled) = sample_place(&forecasts, &far.forecast, sampler, &origin, t) {
             *slot = Some(sampled);
         }
     }

@@ -572,7 +572,8 @@ fn far_weather_shows_toward_the_far_place() {
 /// fog behind it, the meteorological definition of visibility (Koschmieder; WMO-No. 8).
 #[test]
 fn fog_visibility_gives_two_percent_contrast_at_the_visibility_distance() {
-    use bevy_cloudscape::weather::{UtcInstant, Variable, WeatherMapping, WeatherState};
+    use bevy_cloudscape::scene::UtcInstant;
+    use bevy_cloudscape::weather::{Variable, WeatherMapping, WeatherState};
     let visibility = 800.0f32;
     let mut state = WeatherState::empty(UtcInstant::from_unix_seconds(1_620_280_800));
     state.values[Variable::Visibility as usize] = Some(visibility);

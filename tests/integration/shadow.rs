@@ -6,12 +6,13 @@ use bevy::{
     light::{DirectionalLightTexture, GlobalAmbientLight},
     prelude::*,
 };
+use bevy_cloudscape::layers::LayerDrift;
 use bevy_cloudscape::{
     prelude::*,
     reference::{render::CloudTextures, shadow::cloud_shadow_map},
     render::{
         VolumetricClouds,
-        march::{CloudPassStats, LayerDrift},
+        march::CloudPassStats,
         shadow::{CloudShadowMap, CloudShadowStats, shadow_inputs},
     },
 };
@@ -88,6 +89,7 @@ fn reference_shadow_map(rig: &mut CloudRig, textures: &CloudTextures) -> Vec<f64
         .collect();
     let sun = bevy_cloudscape::render::march::CloudSun::pick([(&directional, &light, true)], false);
     let (march, march_layers, frame) = shadow_inputs(
+        world.resource::<CloudWorld>(),
         &settings,
         &clouds,
         &camera,

@@ -76,12 +76,7 @@ fn replacing_a_forecast_file_updates_the_weather_and_bad_files_keep_the_last_goo
     .insert_resource(SceneClock::at("2021-05-04T10:00:00Z".parse().unwrap()));
     app.finish();
     app.cleanup();
-    let source = WeatherSource::load(
-        app.world().resource::<AssetServer>(),
-        GeoOrigin::default(),
-        "bern.json",
-        [],
-    );
+    let source = WeatherSource::load(app.world().resource::<AssetServer>(), "bern.json", []);
     app.insert_resource(source);
     for slot in LayerSlot::ALL {
         app.world_mut().spawn((slot, slot.initial_layer()));

@@ -91,14 +91,15 @@ use super::{
 };
 use crate::{
     CloudscapeSystems,
-    layers::CloudLayer,
+    layers::{CloudLayer, LayerDrift, drift_cloud_layers},
     reference::{
         blue_noise::{BLUE_NOISE_SIZE, blue_noise_map},
         haze::HazeSettings,
         render::{MAX_FAR_COVERAGES, MAX_PROFILE_POINTS, MarchLayer, MarchSettings},
         shadow::ShadowMapFrame,
     },
-    sky::{SceneClock, Sun, light},
+    sky::{Sun, light},
+    world::CloudWorld,
 };
 
 /// The ray-march pass; part of [`crate::CloudscapePlugin`].
@@ -108,6 +109,8 @@ pub struct CloudMarchPlugin;
 impl Plugin for CloudMarchPlugin {
     fn build(&self, app: &mut App) {
         app.register_type::<VolumetricClouds>()
+            .register_type::<CloudWorld>()
+            .init_resource::<CloudWorld>()
             .register_type::<LayerDrift>()
             .register_type::<Haze>()
             .init_resource::<Haze>()
@@ -185,50 +188,6 @@ impl Plugin for CloudMarchPlugin {
     }
 }
 
-/// Horizontal distance the wind has carried a layer's clouds since start-up, metres, as
-/// `[east, north]` in f64 so a week of wind keeps millimetre precision. Added to every
-/// [`CloudLayer`] automatically; advanced with the [`SceneClock`], so the clouds move at the
-/// scene's speed (1×, 60×, 3600×).
-#[derive(Component, Debug, Clone, Copy, Default, PartialEq, Reflect)]
-#[reflect(Component, Default)]
-pub struct LayerDrift {
-    /// Distance travelled, `[east, north]`, metres.
-    pub offset_m: [f64; 2],
-}
-
-/// Scene-time jumps longer than this (scrubbing the clock) do not move the clouds: a cloud field
-/// blown for a day is no more "right" than the one shown.
-const MAX_DRIFT_STEP_S: f64 = 3_600.0;
-
-fn drift_cloud_layers(
-    mut commands: Commands,
-    clock: Res<SceneClock>,
-    mut last_time: Local<Option<f64>>,
-    mut layers: Query<(Entity, &CloudLayer, Option<&mut LayerDrift>)>,
-) {
-    let now = clock.unix_seconds();
-    let dt = last_time.map_or(0.0, |last| now - last);
-    *last_time = Some(now);
-    let dt = if dt.abs() <= MAX_DRIFT_STEP_S {
-        dt
-    } else {
-        0.0
-    };
-    for (entity, layer, drift) in &mut layers {
-        let Some(mut drift) = drift else {
-            commands.entity(entity).insert(LayerDrift::default());
-            continue;
-        };
-        let [east, north] = layer
-            .wind_m_s
-            .map(|v| if v.is_finite() { f64::from(v) } else { 0.0 });
-        if dt != 0.0 && (east != 0.0 || north != 0.0) {
-            drift.offset_m[0] += east * dt;
-            drift.offset_m[1] += north * dt;
-        }
-    }
-}
-
 /// The sun as the clouds see it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CloudSun {
@@ -281,6 +240,7 @@ const GROUND_ALBEDO: f64 = 0.2;
 /// `layers` each layer with its wind drift. Invisible layers ([`CloudLayer::is_visible`]) are
 /// left out.
 pub fn march_inputs<'a>(
+    world: &CloudWorld,
     settings: &VolumetricClouds,
     camera: &GlobalTransform,
     pixel_angle_rad: f64,
@@ -288,10 +248,11 @@ pub fn march_inputs<'a>(
     layers: impl IntoIterator<Item = (&'a CloudLayer, Option<&'a LayerDrift>)>,
     frame_index: u32,
 ) -> (MarchSettings, Vec<MarchLayer>) {
-    let radius = f64::from(settings.planet_radius_m.max(1.0));
+    let settings = &settings.sanitized();
+    let world = &world.sanitized();
+    let radius = f64::from(world.planet_radius_m);
     let position = camera.translation().as_dvec3();
-    let centre = DVec3::new(0.0, f64::from(settings.ground_height_m) - radius, 0.0);
-    let from_centre = position - centre;
+    let from_centre = position - world.planet_centre_m(position);
     let distance = from_centre.length();
     let up = if distance > 0.0 {
         from_centre / distance
@@ -305,12 +266,7 @@ pub fn march_inputs<'a>(
         if !layer.is_visible() {
             continue;
         }
-        let march = march_layer(
-            settings,
-            &layer,
-            &drift.copied().unwrap_or_default(),
-            position,
-        );
+        let march = march_layer(world, &layer, &drift.copied().unwrap_or_default(), position);
         if let Some(rain) = rain_shaft(&layer, &march) {
             march_layers.push(rain);
         }
@@ -326,9 +282,9 @@ pub fn march_inputs<'a>(
         step_growth: f64::from(settings.step_growth.max(0.0)),
         transmittance_cutoff: f64::from(settings.transmittance_cutoff.clamp(0.0, 1.0)),
         octaves: settings.multiple_scattering_octaves,
-        phase_g_forward: f64::from(settings.phase_g_forward),
-        phase_g_back: f64::from(settings.phase_g_back),
-        phase_blend: f64::from(settings.phase_blend.clamp(0.0, 1.0)),
+        phase_g_forward: f64::from(world.phase_g_forward),
+        phase_g_back: f64::from(world.phase_g_back),
+        phase_blend: f64::from(world.phase_blend),
         pixel_angle_rad,
         jitter: settings.jitter,
         frame_index,
@@ -350,7 +306,7 @@ pub fn march_inputs<'a>(
         .iter()
         .map(|l| l.base_m)
         .fold(f64::INFINITY, f64::min);
-    let cloud_altitude_asl = f64::from(settings.ground_height_m) + lowest_base.max(0.0);
+    let cloud_altitude_asl = f64::from(world.ground_height_m) + lowest_base.max(0.0);
     match sun {
         Some(sun) if sun.direction.is_finite() && sun.direction.length_squared() > 0.0 => {
             let direction = sun.direction.as_dvec3().normalize();
@@ -389,7 +345,7 @@ pub fn march_inputs<'a>(
 /// One layer's march parameters, with noise offsets from the camera position plus wind drift,
 /// wrapped in f64 by each noise period.
 fn march_layer(
-    settings: &VolumetricClouds,
+    world: &CloudWorld,
     layer: &CloudLayer,
     drift: &LayerDrift,
     camera: DVec3,
@@ -400,9 +356,9 @@ fn march_layer(
         coverage: f64::from(layer.coverage),
         extinction: f64::from(layer.density),
         weather_scale_m: f64::from(layer.weather_map_scale_m),
-        shape_scale_m: f64::from(settings.shape_scale_m),
-        detail_scale_m: f64::from(settings.detail_scale_m),
-        detail_erosion: f64::from(settings.detail_erosion),
+        shape_scale_m: f64::from(world.shape_scale_m),
+        detail_scale_m: f64::from(world.detail_scale_m),
+        detail_erosion: f64::from(world.detail_erosion),
         shape_strength: f64::from(layer.shape_noise.clamp(0.0, 1.0)),
         precipitation: f64::from(layer.precipitation.clamp(0.0, 1.0)),
         coverage_height: f64::from(layer.coverage_height),
@@ -436,13 +392,13 @@ fn march_layer(
 
 /// The rain falling from a raining layer as a layer of its own, from the ground to the cloud
 /// base: where the cloud has coverage, extinction
-/// [`rain_extinction_per_m`](crate::precipitation::rain_extinction_per_m) of its rain rate, no
+/// [`rain_extinction_per_m`](crate::layers::rain::rain_extinction_per_m) of its rain rate, no
 /// shape noise (straight shafts), the cloud's weather pattern (and far coverages), and a
 /// scattering albedo of one half (the diffracted half of the extinction goes straight on). Seen
 /// from afar these are the grey shafts under showers; from inside, the rain's haze. `None` for a
 /// dry layer or one on the ground.
 fn rain_shaft(layer: &CloudLayer, cloud: &MarchLayer) -> Option<MarchLayer> {
-    let extinction = crate::precipitation::rain_extinction_per_m(layer.rain_mm_per_h);
+    let extinction = crate::layers::rain::rain_extinction_per_m(layer.rain_mm_per_h);
     if !(extinction > 0.0 && cloud.base_m > 0.0) {
         return None;
     }
@@ -741,11 +697,15 @@ fn extract_cloud_views(
     atmospheres: Extract<Query<(), With<Atmosphere>>>,
     frame: Extract<Res<FrameCount>>,
     haze: Extract<Option<Res<Haze>>>,
+    world: Extract<Option<Res<CloudWorld>>>,
 ) {
     let sun = CloudSun::pick(lights.iter(), !atmospheres.is_empty());
+    let earth = CloudWorld::default();
+    let world = world.as_deref().unwrap_or(&earth);
     let clear = Haze::default();
     let haze = haze.as_deref().unwrap_or(&clear);
     for (entity, camera, settings, transform, projection) in &cameras {
+        let settings = &settings.sanitized();
         let mut entity_commands = commands.entity(entity);
         let height = camera
             .physical_viewport_size()
@@ -757,6 +717,7 @@ fn extract_cloud_views(
             _ => 1.0e-3,
         };
         let (march, march_layers) = march_inputs(
+            world,
             settings,
             transform,
             pixel_angle,
@@ -1458,6 +1419,7 @@ mod tests {
     /// The march inputs of `layer` alone for a default camera setup at `camera`, no sun.
     fn inputs(layer: &CloudLayer, camera: &GlobalTransform) -> (MarchSettings, Vec<MarchLayer>) {
         march_inputs(
+            &CloudWorld::default(),
             &VolumetricClouds::default(),
             camera,
             1e-3,
@@ -1465,6 +1427,45 @@ mod tests {
             [(layer, None)],
             0,
         )
+    }
+
+    #[test]
+    fn a_camera_far_out_in_a_flat_world_sees_the_clouds_as_at_the_origin() {
+        let layer = CloudLayer::default();
+        let at = |world: &CloudWorld, x: f32, z: f32| {
+            march_inputs(
+                world,
+                &VolumetricClouds::default(),
+                &GlobalTransform::from_xyz(x, 2.0, z),
+                1e-3,
+                None,
+                [(&layer, None)],
+                0,
+            )
+            .0
+        };
+        let flat = CloudWorld::default();
+        let origin = at(&flat, 0.0, 0.0);
+        for (x, z) in [(1.0e6, -1.0e6), (-1.0e6, 3.0e5)] {
+            let far = at(&flat, x, z);
+            assert!((far.camera_altitude_m - 2.0).abs() < 1e-3, "{x} {z}");
+            assert_eq!(far.camera_up, origin.camera_up);
+        }
+        // On a globe the same camera 1 000 km out is about 78 km above the curved ground
+        // (sqrt(R² + d²) − R) and its up tilts by d / R.
+        let globe = CloudWorld {
+            anchor: crate::world::PlanetAnchor::Geocentric,
+            ..default()
+        };
+        let far = at(&globe, 1.0e6, 0.0);
+        let r = f64::from(globe.planet_radius_m);
+        let expected = (r * r + 1.0e12_f64 + 4.0 * r + 4.0).sqrt() - r;
+        assert!(
+            (far.camera_altitude_m - expected).abs() < 1.0,
+            "{}",
+            far.camera_altitude_m
+        );
+        assert!(far.camera_up[0] > 0.15);
     }
 
     #[test]
@@ -1538,7 +1539,7 @@ mod tests {
         assert_eq!(layers.len(), 2, "the rain shaft and the cloud");
         let rain = &layers[0];
         assert_eq!((rain.base_m, rain.top_m), (0.0, f64::from(layer.base_m)));
-        let sigma = f64::from(crate::precipitation::rain_extinction_per_m(1.0));
+        let sigma = f64::from(crate::layers::rain::rain_extinction_per_m(1.0));
         assert!((rain.extinction - sigma).abs() < 1e-12);
         // A level ray under the cloud base through 3 km of rain: Beer–Lambert.
         let textures = CloudTextures::from_recipe(&NoiseRecipe {

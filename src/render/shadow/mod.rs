@@ -75,17 +75,18 @@ use bevy::{
 use super::{
     VolumetricClouds,
     haze::CloudShadowFrame,
-    march::{CloudSun, GpuCloudLayer, GpuCloudUniforms, LayerDrift, march_inputs},
+    march::{CloudSun, GpuCloudLayer, GpuCloudUniforms, march_inputs},
     noise::CloudNoiseTextures,
 };
 use crate::{
     CloudscapeSystems,
-    layers::CloudLayer,
+    layers::{CloudLayer, LayerDrift},
     reference::{
         render::{MarchLayer, MarchSettings},
         shadow::{MAX_SHADOW_STEPS, ShadowMapFrame},
     },
     sky::Sun,
+    world::CloudWorld,
 };
 
 /// Settings of the cloud shadow map. Live-editable; changing the resolution makes a new map.
@@ -357,6 +358,7 @@ struct ExtractedCloudShadow(Option<ShadowJob>);
 /// needed: no visible layer, or the sun at or below the horizon. The CPU twin of the pass
 /// ([`crate::reference::shadow::cloud_shadow_map`]) takes these.
 pub fn shadow_inputs<'a>(
+    world: &CloudWorld,
     settings: &CloudShadows,
     clouds: &VolumetricClouds,
     camera: &GlobalTransform,
@@ -365,7 +367,7 @@ pub fn shadow_inputs<'a>(
     layers: impl IntoIterator<Item = (&'a CloudLayer, Option<&'a LayerDrift>)>,
 ) -> Option<(MarchSettings, Vec<MarchLayer>, ShadowMapFrame)> {
     let settings = settings.sanitized();
-    let (march, march_layers) = march_inputs(clouds, camera, 1.0e-3, sun, layers, 0);
+    let (march, march_layers) = march_inputs(world, clouds, camera, 1.0e-3, sun, layers, 0);
     let up = DVec3::from_array(march.camera_up);
     let toward_sun = DVec3::from_array(march.sun_direction);
     let daylight = march.sun_illuminance.iter().any(|&e| e > 0.0) && toward_sun.dot(up) > 0.0;
@@ -412,6 +414,7 @@ fn extract_cloud_shadow(
         )>,
     >,
     atmospheres: Extract<Query<(), With<Atmosphere>>>,
+    world: Extract<Option<Res<CloudWorld>>>,
 ) {
     extracted.0 = None;
     // Set again below when the map is marched this frame (the light shafts read it).
@@ -437,6 +440,7 @@ fn extract_cloud_shadow(
     };
     let sun = CloudSun::pick([(light, light_transform, true)], !atmospheres.is_empty());
     extracted.0 = match shadow_inputs(
+        world.as_deref().unwrap_or(&CloudWorld::default()),
         settings,
         clouds,
         camera,
@@ -716,6 +720,7 @@ mod tests {
         let settings = CloudShadows::default();
         let run = |sun: &CloudSun, layers: &[CloudLayer]| {
             shadow_inputs(
+                &CloudWorld::default(),
                 &settings,
                 &clouds,
                 &camera,

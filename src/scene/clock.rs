@@ -2,7 +2,7 @@
 
 use bevy::prelude::*;
 
-use crate::weather::UtcInstant;
+use super::UtcInstant;
 
 /// How [`SceneClock`] advances.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Reflect)]
