@@ -370,7 +370,7 @@ pub fn fade(t: f64) -> f64 {
 /// The 12 cube-edge gradients of improved Perlin noise (Perlin 2002), padded to 16 with four
 /// of them repeated so a 4-bit hash picks one without a modulo (the padding Perlin 2002 uses).
 /// WGSL twin: `PERLIN_GRADIENTS`.
-const PERLIN_GRADIENTS: [[f64; 3]; 16] = [
+pub(crate) const PERLIN_GRADIENTS: [[f64; 3]; 16] = [
     [1.0, 1.0, 0.0],
     [-1.0, 1.0, 0.0],
     [1.0, -1.0, 0.0],

@@ -163,6 +163,10 @@ pub const DETAIL_TRANSITION_HEIGHT: f64 = 0.2;
 /// and the series only avoids `0 / 0`.
 pub const SERIES_LIMIT: f64 = 1e-5;
 
+/// The WGSL twin's `SERIES_LIMIT`: in f32, without `expm1`, the series takes over at a larger
+/// optical thickness (five terms keep it exact to f32 there).
+pub const WGSL_SERIES_LIMIT: f64 = 0.1;
+
 /// Largest Henyey-Greenstein asymmetry magnitude used: at |g| = 1 the lobe is a Dirac peak and
 /// its denominator vanishes.
 pub const MAX_PHASE_G: f64 = 0.999;

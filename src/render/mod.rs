@@ -17,6 +17,8 @@
 //!   Bevy's PBR lighting applies to the sun's direct light on every `StandardMaterial`.
 
 pub mod composite;
+#[cfg(test)]
+mod contract;
 pub mod haze;
 pub mod march;
 pub mod noise;

@@ -29,45 +29,10 @@
 // `scene * T + L`. Radiance is in the units of `sun_illuminance` per steradian (lux -> cd/m^2)
 // *before exposure*: the entry shader multiplies it by the view's exposure.
 
-// Per-view uniforms, 240 bytes. Every scalar group fills 16 bytes before the first vec4, so the
-// layout is the same under WGSL's uniform rules and encase. Mirror in Rust (`MarchSettings` in
-// reference/render.rs is the f64 source of the same values):
-//
-//     #[derive(ShaderType)]
-//     struct GpuCloudUniforms {
-//         planet_radius_m: f32,        // offset   0, default 6 371 000
-//         camera_altitude_m: f32,      // offset   4, above the ground sphere, computed in f64
-//         pixel_angle_rad: f32,        // offset   8, footprint of a pixel, for mip selection
-//         step_growth: f32,            // offset  12, 1/m
-//         primary_steps: u32,          // offset  16, per interval, 1..=1024
-//         light_steps: u32,            // offset  20, 0..=64
-//         octaves: u32,                // offset  24, 1..=8
-//         layer_count: u32,            // offset  28, entries of `cloud_layers` used
-//         transmittance_cutoff: f32,   // offset  32
-//         ms_attenuation: f32,         // offset  36, Wrenninge a (0.3)
-//         ms_contribution: f32,        // offset  40, Wrenninge b (0.75)
-//         ms_eccentricity: f32,        // offset  44, Wrenninge c (0.5)
-//         phase_g_forward: f32,        // offset  48
-//         phase_g_back: f32,           // offset  52
-//         phase_blend: f32,            // offset  56, weight of the back lobe
-//         jitter: u32,                 // offset  60, 0 off, 1 on
-//         frame_index: u32,            // offset  64
-//         sun_from_shadow_map_m: f32,  // offset  68, FAR_AWAY when off
-//         shadow_map: u32,             // offset  72, 0 none, 1 bound
-//         min_step_m: f32,             // offset  76
-//         sample_offset_uv: Vec2,      // offset  80, temporal upsampling, 0 when off
-//         light_steps_per_footprint: f32, // offset 88, 0: no limit
-//         _pad_b: u32,                 // offset  92
-//         camera_up: Vec4,             // offset  96, xyz unit up at the camera, w unused
-//         sun_direction: Vec4,         // offset 112, xyz unit toward the sun (world), w unused
-//         sun_illuminance: Vec4,       // offset 128, rgb lux at the clouds, atmosphere applied
-//         ambient_top: Vec4,           // offset 144, rgb sky radiance at cloud tops
-//         ambient_bottom: Vec4,        // offset 160, rgb sky radiance at cloud bases
-//         shadow_map_centre_m: Vec4,   // offset 176, xyz relative to the camera
-//         shadow_map_axis_x: Vec4,     // offset 192, axis / |axis|^2
-//         shadow_map_axis_y: Vec4,     // offset 208
-//         shadow_map_range_m: Vec4,    // offset 224, (bottom, top, texel side, 0)
-//     }
+// Per-view uniforms, written by `GpuCloudUniforms` (render/march/mod.rs) from `MarchSettings`
+// (reference/render.rs, the f64 source of the same values). Every scalar group fills 16 bytes
+// before the first vec4, so the layout is the same under WGSL's uniform rules and encase;
+// `render::contract` checks size and field order.
 struct CloudUniforms {
     // Radius of the ground sphere, m.
     planet_radius_m: f32,
@@ -133,34 +98,8 @@ struct CloudUniforms {
     shadow_map_range_m: vec4<f32>,
 }
 
-// One cloud layer, 208 bytes (an array stride of 208 in the storage buffer). Mirror in Rust
-// (`MarchLayer` in reference/render.rs is the f64 source of the same values):
-//
-//     #[derive(ShaderType)]
-//     struct GpuCloudLayer {
-//         base_m: f32,                 // offset   0, above ground
-//         top_m: f32,                  // offset   4, above ground
-//         coverage: f32,               // offset   8, 0-1
-//         extinction: f32,             // offset  12, 1/m of the densest cloud
-//         weather_scale_m: f32,        // offset  16, m per weather-noise period
-//         shape_scale_m: f32,          // offset  20, m per base-noise period
-//         detail_scale_m: f32,         // offset  24, m per detail-noise period
-//         detail_erosion: f32,         // offset  28, 0-0.9
-//         shape_strength: f32,         // offset  32, 0 = homogeneous slab
-//         precipitation: f32,          // offset  36, 0-1 darkening
-//         profile_count: u32,          // offset  40, 0..=8 (0: density 1 everywhere)
-//         far_count: u32,              // offset  44, 0..=2 entries of `far`
-//         coverage_height: f32,        // offset  48, 0-1, how far the local coverage lowers
-//                                      //   the tops (then 12 bytes of padding)
-//         weather_offset_m: Vec4,      // offset  64, xy weather offset (m), zw skew (m per m;
-//                                      //   -skew * wind direction leans tops downwind)
-//         noise_offset_m: Vec4,        // offset  80, xy base-noise offset, zw detail offset (m)
-//         profile: [Vec4; 4],          // offset  96, (h0, d0, h1, d1), (h2, d2, h3, d3), ...
-//         far: [Vec4; 2],              // offset 160, (a_x, a_z, offset, coverage) per far place
-//         weather_map: Vec4,           // offset 192, (origin x, origin y, slice, side): weather
-//                                      //   texel of map texel (0, 0), array slice, texels per
-//                                      //   side; side < 2 when the layer has no map
-//     }
+// One cloud layer of the storage buffer, written by `GpuCloudLayer` (render/march/mod.rs) from
+// `MarchLayer` (reference/render.rs); `render::contract` checks size and field order.
 //
 // Offsets are wrapped by their own period on the CPU in f64 (`MarchLayer::set_noise_origin`), so
 // they stay below one period. Horizontal coordinates are along `horizontal_axes(up)`.

@@ -132,7 +132,7 @@ pub const NOISE_2D_FORMAT: TextureFormat = TextureFormat::Rgba8Unorm;
 /// The noise uniform, laid out as `NoiseParams` in `noise.wgsl` (160 bytes, 16-byte fields).
 /// fBm slot `s` is lane `s % 4` of the `_{s / 4}` vectors ([`NoiseRecipe::fbm_slots`]).
 #[derive(ShaderType, Clone, Debug)]
-struct GpuNoiseParams {
+pub(crate) struct GpuNoiseParams {
     seed: u32,
     _padding0: u32,
     _padding1: u32,

@@ -28,25 +28,9 @@
 // (`quantize_noise`), which half floats hold exactly, so the texels do not depend on how the
 // GPU rounds f32 to f16.
 
-// Uniform parameters, 160 bytes, every field 16-byte aligned so the layout is the same under
-// WGSL's uniform rules and encase. Mirror in Rust:
-//
-//     #[derive(ShaderType)]
-//     struct GpuNoiseParams {
-//         seed: u32,                      // offset   0
-//         _padding0: u32,                 // offset   4
-//         _padding1: u32,                 // offset   8
-//         _padding2: u32,                 // offset  12
-//         frequencies_0: UVec4,           // offset  16, fBm slots 0-3
-//         frequencies_1: UVec4,           // offset  32, slots 4-7
-//         frequencies_2: UVec4,           // offset  48, slots 8-11
-//         octaves_0: UVec4,               // offset  64
-//         octaves_1: UVec4,               // offset  80
-//         octaves_2: UVec4,               // offset  96
-//         persistences_0: Vec4,           // offset 112
-//         persistences_1: Vec4,           // offset 128
-//         persistences_2: Vec4,           // offset 144
-//     }
+// Uniform parameters, written by `GpuNoiseParams` (render/noise/mod.rs), every field 16-byte
+// aligned so the layout is the same under WGSL's uniform rules and encase; `render::contract`
+// checks size and field order.
 //
 // Slot s is lane s % 4 of the `_{s / 4}` fields and comes from `NoiseRecipe::fbm_slots()[s]`
 // (frequency and octaves as they are, persistence as f32); the slots are the SLOT_* constants

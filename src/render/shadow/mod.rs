@@ -468,7 +468,7 @@ fn extract_cloud_shadow(
 
 /// The shadow uniform, laid out as `ShadowUniforms` in `shadow.wgsl` (80 bytes).
 #[derive(ShaderType, Clone, Debug, Default)]
-struct GpuShadowUniforms {
+pub(crate) struct GpuShadowUniforms {
     centre_m: Vec4,
     axis_x_m: Vec4,
     axis_y_m: Vec4,
