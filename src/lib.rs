@@ -12,7 +12,6 @@
 //! | sky | [`sky`] | where the sun is for a place and a UTC instant (NREL SPA), and the light it aims |
 //! | world | [`world`] | [`world::CloudWorld`]: the planet, its anchoring, the cloud noise and phase function, shared by every camera |
 //! | layers | [`layers`] | [`layers::CloudLayer`]: altitude, coverage, density, kind and profile, wind |
-//! | CPU reference | [`reference`](mod@reference) | f64 twins of the GPU noise, march and shadow map: the truth the GPU is tested against, and CPU queries |
 //! | noise | [`render::noise`] | compute pass filling tileable 3D cloud-noise textures once |
 //! | march | [`render::march`] | fullscreen ray-march of the layers per camera, stopped by the depth prepass, composited in HDR |
 //! | shadow | [`render::shadow`] | the cloud shadow map along the sun, applied to the sun's light on every `StandardMaterial` |
@@ -29,6 +28,7 @@ use bevy::{
 
 pub mod layers;
 pub mod precipitation;
+#[doc(hidden)]
 pub mod reference;
 pub mod render;
 pub mod scene;

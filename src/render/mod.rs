@@ -335,7 +335,7 @@ impl VolumetricClouds {
     /// [`VolumetricClouds::resolution_scale`] as the pass uses it: clamped to 0.25–1, and 1
     /// when not a number.
     #[must_use]
-    pub fn effective_resolution_scale(&self) -> f32 {
+    pub(crate) fn effective_resolution_scale(&self) -> f32 {
         if self.resolution_scale.is_nan() {
             1.0
         } else {
@@ -345,6 +345,7 @@ impl VolumetricClouds {
 }
 
 impl VolumetricClouds {
+    #[doc(hidden)]
     /// [`VolumetricClouds::temporal_blend`] as the accumulation uses it: `None` (off) without
     /// jitter, at 1 or more, or when not a number; otherwise clamped to 0.02–1.
     #[must_use]
@@ -355,7 +356,7 @@ impl VolumetricClouds {
     /// [`VolumetricClouds::light_shaft_resolution_scale`] as the pass uses it: clamped to
     /// 0.125–1, and 0.25 when not a number.
     #[must_use]
-    pub fn effective_light_shaft_resolution_scale(&self) -> f32 {
+    pub(crate) fn effective_light_shaft_resolution_scale(&self) -> f32 {
         if self.light_shaft_resolution_scale.is_nan() {
             0.25
         } else {

@@ -19,14 +19,14 @@ pub use time::{CivilDateTime, TimeParseError, UtcInstant};
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Place {
     /// Name for display, e.g. `"Bern"`; meteoblue's `metadata.name`, otherwise the file stem when
-    /// read with [`Forecast::from_path`], otherwise empty.
+    /// read with [`Forecast::from_path`](crate::weather::Forecast::from_path), otherwise empty.
     pub name: String,
     /// Latitude in degrees, north positive, −90 to 90.
     pub latitude_deg: f64,
     /// Longitude in degrees, east positive, −180 to 180.
     pub longitude_deg: f64,
     /// Ground elevation above mean sea level in metres (meteoblue `metadata.height`, Open-Meteo
-    /// `elevation`); 0 when the file does not say, with a note in [`Forecast::warnings`].
+    /// `elevation`); 0 when the file does not say, with a note in [`Forecast::warnings`](crate::weather::Forecast::warnings).
     pub elevation_m: f64,
 }
 

@@ -46,7 +46,7 @@ pub struct CivilDateTime {
 }
 
 /// Why a time stamp could not be read; carried inside
-/// [`ForecastError::BadTime`](super::ForecastError::BadTime).
+/// [`ForecastError::BadTime`](crate::weather::ForecastError::BadTime).
 #[derive(Clone, Copy, Debug, Error, PartialEq, Eq)]
 #[error("{reason}")]
 pub struct TimeParseError {

@@ -4,7 +4,7 @@
 //!   checked against the paper's worked example and against published ephemeris tables; see
 //!   [`solar`].
 //! - A `DirectionalLight` with the [`Sun`] component is aimed from the true solar position for
-//!   the [`GeoOrigin`](crate::scene::GeoOrigin) at the [`SceneClock`]'s instant, and dims to
+//!   the [`GeoOrigin`] at the [`SceneClock`]'s instant, and dims to
 //!   nothing as the sun's disc sets.
 
 pub mod light;

@@ -88,16 +88,16 @@ pub(crate) fn load_composite_shaders(app: &mut App) {
 }
 
 /// Format of the reduced-resolution `(L, T)` target.
-pub const LOW_RES_COLOUR_FORMAT: TextureFormat = TextureFormat::Rgba16Float;
+pub(crate) const LOW_RES_COLOUR_FORMAT: TextureFormat = TextureFormat::Rgba16Float;
 /// Format of the reduced-resolution target of distances, metres: where each ray was stopped,
 /// and where its content lies (the clouds' opacity-weighted distance, or the scene's if nearer)
 /// for the temporal accumulation's reprojection.
-pub const LOW_RES_DISTANCE_FORMAT: TextureFormat = TextureFormat::Rg32Float;
+pub(crate) const LOW_RES_DISTANCE_FORMAT: TextureFormat = TextureFormat::Rg32Float;
 /// Format of the temporal accumulation's history of `(L, T)`, at the view's full resolution.
-pub const HISTORY_FORMAT: TextureFormat = TextureFormat::Rgba16Float;
+pub(crate) const HISTORY_FORMAT: TextureFormat = TextureFormat::Rgba16Float;
 /// Format of the light-shaft factors: the factor below the lowest cloud base, the factor above
 /// it, and the distance the ray was stopped at (metres, so 32-bit).
-pub const SHAFT_FORMAT: TextureFormat = TextureFormat::Rgba32Float;
+pub(crate) const SHAFT_FORMAT: TextureFormat = TextureFormat::Rgba32Float;
 
 /// The depth prepass binding, multisampled or not.
 pub(crate) fn depth_binding(multisampled: bool) -> BindGroupLayoutEntryBuilder {
@@ -197,7 +197,7 @@ pub(crate) fn init_cloud_upsample_pipeline(
 
 /// Layouts and shader of the depth-aware upsample that composites a reduced-resolution march.
 #[derive(Resource)]
-pub struct CloudUpsamplePipeline {
+pub(crate) struct CloudUpsamplePipeline {
     pub(crate) layouts: DepthLayouts,
     fullscreen: FullscreenShader,
     shader: Handle<Shader>,
@@ -205,7 +205,7 @@ pub struct CloudUpsamplePipeline {
 
 /// What an upsample pipeline is specialised on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct CloudUpsampleKey {
+pub(crate) struct CloudUpsampleKey {
     /// Format of the view's main texture.
     pub format: TextureFormat,
     /// MSAA sample count of the view.
@@ -251,7 +251,7 @@ impl SpecializedRenderPipeline for CloudUpsamplePipeline {
 /// The temporal accumulation's uniform, laid out as `TemporalUniforms` in `temporal.wgsl`
 /// (96 bytes).
 #[derive(ShaderType, Clone, Debug, Default)]
-pub struct GpuTemporalUniforms {
+pub(crate) struct GpuTemporalUniforms {
     /// Last frame's clip space from a point relative to this frame's camera.
     pub previous_clip_from_relative: Mat4,
     /// Weight of the new frame, 0–1, for a pixel the march's ray went through this frame: the
@@ -265,6 +265,7 @@ pub struct GpuTemporalUniforms {
     pub upsampling_factor: u32,
 }
 
+#[doc(hidden)]
 /// The temporal upsampling of a view that accumulates frames
 /// ([`VolumetricClouds::temporal_blend`](super::VolumetricClouds::temporal_blend)) and marches
 /// at a reduced resolution: each frame the march's rays go through the centre of another of the
@@ -310,7 +311,7 @@ impl TemporalUpsampling {
 /// ground sphere, whichever is nearer ([`crate::reference::composite::ray_end_m`]), as the
 /// march does for the texels they read.
 #[derive(ShaderType, Clone, Debug, Default)]
-pub struct GpuViewGround {
+pub(crate) struct GpuViewGround {
     /// The camera's local vertical (xyz, unit) and its altitude above the ground (w, m).
     pub camera_up_altitude: Vec4,
     /// The planet's radius, m.
@@ -319,7 +320,7 @@ pub struct GpuViewGround {
 
 /// Where a view's camera was and how it projected, for the next frame's reprojection.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ViewPose {
+pub(crate) struct ViewPose {
     /// The camera's world position, m (f64: a camera far from the origin keeps its precision).
     pub position: DVec3,
     /// The camera's world rotation.
@@ -351,7 +352,7 @@ impl ViewPose {
 
 /// Layouts, sampler and shader of the temporal accumulation (`temporal.wgsl`).
 #[derive(Resource)]
-pub struct CloudTemporalPipeline {
+pub(crate) struct CloudTemporalPipeline {
     pub(crate) layouts: DepthLayouts,
     pub(crate) sampler: Sampler,
     fullscreen: FullscreenShader,
@@ -426,7 +427,7 @@ impl SpecializedRenderPipeline for CloudTemporalPipeline {
 /// The temporal accumulation of a view: the history it reads (last frame's) and the one it
 /// writes, and the uniform.
 #[derive(Component)]
-pub struct CloudHistory {
+pub(crate) struct CloudHistory {
     /// Last frame's history.
     pub read: CachedTexture,
     /// This frame's history, which is also what gets composited.
@@ -445,7 +446,7 @@ pub(crate) struct HistoryState {
 
 /// The reduced-resolution targets of a view that marches below full resolution.
 #[derive(Component)]
-pub struct CloudLowResTargets {
+pub(crate) struct CloudLowResTargets {
     /// `(L, T)`, [`LOW_RES_COLOUR_FORMAT`].
     pub colour: CachedTexture,
     /// Where each ray was stopped, metres ([`LOW_RES_DISTANCE_FORMAT`]).
@@ -457,12 +458,13 @@ pub struct CloudLowResTargets {
 /// The light-shaft factors of a view with light shafts ([`SHAFT_FORMAT`]), at
 /// [`VolumetricClouds::light_shaft_resolution_scale`](super::VolumetricClouds::light_shaft_resolution_scale).
 #[derive(Component)]
-pub struct CloudShaftTarget {
+pub(crate) struct CloudShaftTarget {
     /// Per texel: the factor below the lowest cloud base, the factor above it, the distance the
     /// ray was stopped at (metres), 0.
     pub factors: CachedTexture,
 }
 
+#[doc(hidden)]
 /// Size of a reduced-resolution image for a view of `size` pixels at `scale`: each side
 /// rounded up, at least 1.
 pub fn low_res_size(size: UVec2, scale: f32) -> UVec2 {

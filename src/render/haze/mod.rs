@@ -68,7 +68,7 @@ pub(crate) fn load_haze_shader(app: &mut App) {
 /// The haze settings of one view: [`Haze`] with the view's quality knobs, and the clouds' mean
 /// transmittance toward the sun for haze without a shadow map. Bad values (NaN, negative)
 /// give no haze rather than NaN.
-pub fn haze_settings(
+pub(crate) fn haze_settings(
     haze: &Haze,
     clouds: &VolumetricClouds,
     march: &MarchSettings,
@@ -102,6 +102,7 @@ pub fn haze_settings(
     }
 }
 
+#[doc(hidden)]
 /// Where the cloud shadow map lies this frame, for the light shafts and the sun of far cloud
 /// samples (render world): the map's frame relative to the camera it follows, and that camera's
 /// position. Absent while no map holds shadows (disabled, night, no clouds).
@@ -128,7 +129,7 @@ impl CloudShadowFrame {
 
 /// The haze uniform, laid out as `HazeUniforms` in `haze.wgsl` (36 bytes).
 #[derive(ShaderType, Clone, Debug, Default)]
-pub struct GpuHazeUniforms {
+pub(crate) struct GpuHazeUniforms {
     extinction_per_m: f32,
     scale_height_m: f32,
     albedo: f32,

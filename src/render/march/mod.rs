@@ -188,6 +188,7 @@ impl Plugin for CloudMarchPlugin {
     }
 }
 
+#[doc(hidden)]
 /// The sun as the clouds see it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CloudSun {
@@ -233,6 +234,7 @@ const NIGHT_SKY_RADIANCE: [f64; 3] = [0.6e-4, 0.8e-4, 1.2e-4];
 /// Albedo of the ground that lights cloud bases from below.
 const GROUND_ALBEDO: f64 = 0.2;
 
+#[doc(hidden)]
 /// The march inputs for one camera: f64 settings and the visible layers, from the same numbers
 /// the CPU reference renders with.
 ///
@@ -440,7 +442,7 @@ fn march_far_coverage(march: &mut MarchLayer, layer: &CloudLayer, camera: DVec3)
 
 /// Per-view uniforms, laid out as `CloudUniforms` in `clouds.wgsl` (240 bytes).
 #[derive(ShaderType, Clone, Debug, Default)]
-pub struct GpuCloudUniforms {
+pub(crate) struct GpuCloudUniforms {
     planet_radius_m: f32,
     camera_altitude_m: f32,
     pixel_angle_rad: f32,
@@ -551,7 +553,7 @@ impl GpuCloudUniforms {
 
     /// These uniforms with the temporal upsampling's offset of this frame's rays, in uv
     /// ([`TemporalUpsampling::offset_uv`]).
-    pub fn with_sample_offset(mut self, offset_uv: Vec2) -> Self {
+    pub(crate) fn with_sample_offset(mut self, offset_uv: Vec2) -> Self {
         self.sample_offset_uv = offset_uv;
         self
     }
@@ -559,7 +561,7 @@ impl GpuCloudUniforms {
 
 /// One layer, laid out as `CloudLayerGpu` in `clouds.wgsl` (208 bytes).
 #[derive(ShaderType, Clone, Debug, Default)]
-pub struct GpuCloudLayer {
+pub(crate) struct GpuCloudLayer {
     base_m: f32,
     top_m: f32,
     coverage: f32,
@@ -585,7 +587,7 @@ impl GpuCloudLayer {
     /// Points the layer at slice `slice` of a weather map of side `size` texels whose texel
     /// `(0, 0)` is weather texel `origin` ([`crate::reference::weather_map::weather_map_origin`]).
     /// Without a call the layer has no map and the march computes its coverage at every sample.
-    pub fn set_weather_map(&mut self, origin: [i64; 2], slice: u32, size: u32) {
+    pub(crate) fn set_weather_map(&mut self, origin: [i64; 2], slice: u32, size: u32) {
         self.weather_map = Vec4::new(
             origin[0] as f32,
             origin[1] as f32,
@@ -638,6 +640,7 @@ impl From<&MarchLayer> for GpuCloudLayer {
     }
 }
 
+#[doc(hidden)]
 /// The clouds of one view, extracted each frame; absent when the view has no visible layer.
 #[derive(Component, Clone, Debug)]
 pub struct ExtractedCloudView {
@@ -838,7 +841,7 @@ fn prepare_cloud_view_buffers(
 
 /// Layouts, sampler and shader of the march pass.
 #[derive(Resource)]
-pub struct CloudMarchPipeline {
+pub(crate) struct CloudMarchPipeline {
     layouts: DepthLayouts,
     fullscreen: FullscreenShader,
     shader: Handle<Shader>,
@@ -848,7 +851,7 @@ pub struct CloudMarchPipeline {
 
 /// What a march pipeline is specialised on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct CloudMarchPipelineKey {
+pub(crate) struct CloudMarchPipelineKey {
     /// Format of the view's main texture.
     pub format: TextureFormat,
     /// MSAA sample count of the view (the depth prepass is multisampled when > 1).
@@ -989,7 +992,7 @@ impl SpecializedRenderPipeline for CloudMarchPipeline {
 /// The specialised pipelines of a view: the march, the upsample when the view marches at a
 /// reduced resolution, and the shaft pass when it draws light shafts.
 #[derive(Component)]
-pub struct CloudMarchPipelineId {
+pub(crate) struct CloudMarchPipelineId {
     /// The march.
     pub march: CachedRenderPipelineId,
     /// The upsample, for a reduced resolution.

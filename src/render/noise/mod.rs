@@ -123,11 +123,11 @@ fn check_device(world: &World) -> Result<(), String> {
 /// ([`crate::reference::noise::quantize_noise`]), eight times finer than bytes and exactly a half
 /// float, so the stored texels do not depend on how the GPU converts f32 to f16 and the march
 /// and its CPU twin sample the same values.
-pub const NOISE_3D_FORMAT: TextureFormat = TextureFormat::Rgba16Float;
+pub(crate) const NOISE_3D_FORMAT: TextureFormat = TextureFormat::Rgba16Float;
 
 /// Texel format of the weather noise. The march filters the weather noise itself from texel
 /// loads, so bytes lose nothing there.
-pub const NOISE_2D_FORMAT: TextureFormat = TextureFormat::Rgba8Unorm;
+pub(crate) const NOISE_2D_FORMAT: TextureFormat = TextureFormat::Rgba8Unorm;
 
 /// The noise uniform, laid out as `NoiseParams` in `noise.wgsl` (160 bytes, 16-byte fields).
 /// fBm slot `s` is lane `s % 4` of the `_{s / 4}` vectors ([`NoiseRecipe::fbm_slots`]).
@@ -254,6 +254,7 @@ fn init_cloud_noise_pipelines(
     commands.insert_resource(pipelines);
 }
 
+#[doc(hidden)]
 /// One noise texture on the GPU.
 #[derive(Clone)]
 pub struct CloudNoiseTexture {
@@ -263,6 +264,7 @@ pub struct CloudNoiseTexture {
     pub view: TextureView,
 }
 
+#[doc(hidden)]
 /// The cloud-noise textures in the render world, for the passes that sample them.
 ///
 /// Inserted when the first generation has been submitted (which waits for the pipelines to

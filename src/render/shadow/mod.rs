@@ -221,7 +221,7 @@ fn shadow_camera<'a>(
 }
 
 /// The map's texel format: half floats, for the optical depths of the levels.
-pub const SHADOW_MAP_FORMAT: TextureFormat = TextureFormat::Rgba16Float;
+pub(crate) const SHADOW_MAP_FORMAT: TextureFormat = TextureFormat::Rgba16Float;
 
 /// A texel of no shadow, as `Rgba16Float` bytes: transmittance 1, optical depths 0.
 const NO_SHADOW_TEXEL: [u8; 8] = {
@@ -352,6 +352,7 @@ enum ShadowJob {
 #[derive(Resource, Default)]
 struct ExtractedCloudShadow(Option<ShadowJob>);
 
+#[doc(hidden)]
 /// The inputs of the shadow map, from the same numbers the view march uses: the march settings
 /// and visible layers relative to `camera` (the camera the map follows), and the map's frame from
 /// the sun `light`'s transform (rotation, map centre, half-extent scale). `None` when no pass is

@@ -19,7 +19,7 @@
 //! weather texel under the camera minus half the side
 //! ([`weather_map_origin`]). That texel comes
 //! from the layer's weather offset, which the CPU accumulates in f64 (camera position and wind
-//! drift, [`LayerDrift`](super::march::LayerDrift)) and wraps by the weather period, so the map
+//! drift, [`LayerDrift`](crate::layers::LayerDrift)) and wraps by the weather period, so the map
 //! moves by whole texels as the wind blows and the fraction of a texel stays in the look-up. A
 //! week of wind loses no precision, and the map never blurs or shimmers as it scrolls.
 //!
@@ -56,7 +56,7 @@ use crate::reference::{
 };
 
 /// Texel format of the weather map: one f32 of local coverage, 0–1.
-pub const WEATHER_MAP_FORMAT: TextureFormat = TextureFormat::R32Float;
+pub(crate) const WEATHER_MAP_FORMAT: TextureFormat = TextureFormat::R32Float;
 
 /// Registers `weather_map.wgsl`.
 pub(crate) fn load_weather_map_shader(app: &mut App) {
@@ -65,7 +65,7 @@ pub(crate) fn load_weather_map_shader(app: &mut App) {
 
 /// The pass's uniforms, laid out as `WeatherMapUniforms` in `weather_map.wgsl` (16 bytes).
 #[derive(ShaderType, Clone, Copy, Debug, Default)]
-pub struct GpuWeatherMapUniforms {
+pub(crate) struct GpuWeatherMapUniforms {
     size: u32,
     slices: u32,
     pad0: u32,
@@ -74,7 +74,7 @@ pub struct GpuWeatherMapUniforms {
 
 /// Layout and compute pipeline of the weather-map pass.
 #[derive(Resource)]
-pub struct CloudWeatherMapPipeline {
+pub(crate) struct CloudWeatherMapPipeline {
     layout: BindGroupLayoutDescriptor,
     pipeline: CachedComputePipelineId,
 }
@@ -122,7 +122,7 @@ pub(crate) fn init_cloud_weather_map_pipeline(
 /// The side a view's weather map gets, texels: `requested` clamped to the device's largest 2D
 /// texture and [`MAX_WEATHER_MAP_SIZE`]; `None` (no map) below 2 texels, without layers, or with
 /// more layers than a texture array holds.
-pub fn planned_weather_map_size(
+pub(crate) fn planned_weather_map_size(
     requested: u32,
     layer_count: usize,
     limits: &WgpuLimits,
@@ -136,7 +136,7 @@ pub fn planned_weather_map_size(
 
 /// Points each GPU layer at its slice (its index) of a weather map of side `size`, on a weather
 /// noise of `noise_size` texels per side.
-pub fn assign_weather_map(
+pub(crate) fn assign_weather_map(
     gpu_layers: &mut [GpuCloudLayer],
     layers: &[MarchLayer],
     noise_size: u32,
@@ -151,6 +151,7 @@ pub fn assign_weather_map(
     }
 }
 
+#[doc(hidden)]
 /// A view's weather map: the texture array the march reads (binding 12), and this frame's
 /// dispatch when the map is on.
 #[derive(Component)]
