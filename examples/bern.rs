@@ -60,7 +60,7 @@
 //! - **Terrain**: `--dem` takes any ESRI ASCII grid or `GeoTIFF` in geographic degrees that covers
 //!   Bern. If it cannot be read the error (file and line) is logged and shown on screen, and the
 //!   demo goes on over flat ground at 540 m.
-//! - **Photos** (seed 000 §7.3, the Roundshot overlay): `--photos DIR` reads
+//! - **Photos** (Thomann 2021 §7.3, the Roundshot overlay): `--photos DIR` reads
 //!   `DIR/gurten/YYYY-MM-DDTHH-MM.jpg` and `DIR/bantiger/…` (`.jpg`, `.jpeg` or `.png`; the time
 //!   is UTC, e.g. `gurten/2021-05-03T14-00.jpg`). The photo nearest the scene time is drawn over
 //!   the view, left of a wiper, with the chosen opacity. Missing folders or photos are reported,
@@ -370,7 +370,7 @@ fn parse_duration_s(text: &str) -> Result<i64, String> {
 // ---------------------------------------------------------------------------------------------
 // Viewpoints
 
-/// The two summits of seed 000 §4.4, each with the far place whose weather shows on its horizon.
+/// The two summits of Thomann 2021 §4.4, each with the far place whose weather shows on its horizon.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 enum Viewpoint {
     #[default]
@@ -990,7 +990,7 @@ fn wait_for_forecasts(
 }
 
 // ---------------------------------------------------------------------------------------------
-// Photo overlay (seed 000 §7.3)
+// Photo overlay (Thomann 2021 §7.3)
 
 /// Photos found under `--photos`, per viewpoint, sorted by time.
 #[derive(Resource, Default)]
@@ -1227,7 +1227,7 @@ fn update_photo_overlay(
 
 #[cfg(feature = "inspector")]
 mod panel {
-    //! The live/play window (seed 000's requirements, §2.4 UI mock-ups), performance numbers,
+    //! The live/play window (Thomann 2021's requirements, §2.4 UI mock-ups), performance numbers,
     //! the photo overlay's settings, and an inspector for the layers and the camera's clouds.
 
     use bevy::{

@@ -19,6 +19,23 @@
 //! | terrain | [`terrain`] | DEM readers and a terrain mesh builder (for the Bern demo and your own scenes) |
 //!
 //! Compatible with Bevy 0.19.
+//!
+//! # References
+//!
+//! The docs cite sources by author and year:
+//!
+//! - Hillaire 2016, "Physically Based Sky, Atmosphere and Cloud Rendering in Frostbite".
+//! - Karis 2014, "High Quality Temporal Supersampling".
+//! - Marshall & Palmer 1948, "The distribution of raindrops with size".
+//! - Pérez Martín 2022, "Aetherius: Real-Time Volumetric Cloud Generation Tool for Unity".
+//! - Perlin 2002, "Improving Noise".
+//! - Reda & Andreas 2004, "Solar position algorithm for solar radiation applications".
+//! - Rosa 2013, "Large-scale cloudscapes using noise".
+//! - Schneider 2015, "The real-time volumetric cloudscapes of Horizon Zero Dawn".
+//! - Stephens 1978, "Radiation profiles in extended water clouds. II: Parameterization schemes".
+//! - Thomann 2020, "Procedural cloud shader".
+//! - Thomann 2021, "Near Real-time Weather Rendering System".
+//! - Wrenninge 2013, "Oz: the great and volumetric".
 #![deny(missing_docs)]
 
 use bevy::{

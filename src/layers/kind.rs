@@ -9,7 +9,7 @@ use bevy::prelude::Reflect;
 use super::{CloudLayer, DensityProfile};
 
 /// The cloud genera the crate draws (WMO International Cloud Atlas, WMO-No. 407). Nimbostratus is
-/// left out: as seed 000 §4.2.6 proposes, it is drawn as darkened, thickened altostratus over
+/// left out: as Thomann 2021 §4.2.6 proposes, it is drawn as darkened, thickened altostratus over
 /// stratus (see [`weather::mapping`](crate::weather::mapping)).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Reflect)]
 pub enum CloudKind {

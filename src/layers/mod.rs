@@ -7,13 +7,13 @@
 //! - **Where**: [`CloudLayer::base_m`] and [`CloudLayer::top_m`], metres above ground. The renderer
 //!   draws the layer as a spherical shell around the planet centre.
 //! - **How much**: [`CloudLayer::coverage`] is the fraction of the sky the layer covers (0–1). It
-//!   drives the coverage remap of the density model (seed 002, "Density Model":
+//!   drives the coverage remap of the density model (Pérez Martín 2022, "Density Model":
 //!   `Remap(base, 1 − coverage · weather, 1, 0, 1)`).
 //! - **How dense**: [`CloudLayer::density`] is the extinction coefficient, 1/m, of the densest
 //!   cloud in the layer. The noise density (0–1) scales it.
 //! - **What shape**: [`CloudLayer::profile`] is a [`DensityProfile`]: density against the height
 //!   fraction in the layer (0 at the base, 1 at the top). It plays the part of Aetherius'
-//!   shape-altering curve. In seed 002 ("Density Model") the shape-altering gradient starts as
+//!   shape-altering curve. In Pérez Martín 2022 ("Density Model") the shape-altering gradient starts as
 //!   two remaps multiplied together, "no density at the bottom, full density somewhere in the
 //!   middle … fades to zero density again at the top". It then becomes a user-drawn curve, sampled
 //!   into an array on the CPU "when the curve is modified" and passed to the shader
@@ -23,7 +23,7 @@
 //!   instead of standing as walls there. Inside the patches of a broken layer the base shape
 //!   noise carves separate heaps ([`crate::reference::render::local_coverage`]).
 //! - **How it moves**: [`CloudLayer::wind_m_s`] scrolls the layer's noise and weather map.
-//!   [`CloudLayer::skew`] leans the clouds downwind with height. This is seed 002's "Wind and
+//!   [`CloudLayer::skew`] leans the clouds downwind with height. This is Pérez Martín 2022's "Wind and
 //!   Skew": skew "only displaces the weather map texture and the amount displaced increases with
 //!   height".
 //! - **Weather**: [`CloudLayer::precipitation`] darkens the cloud (0–1) and
@@ -54,7 +54,7 @@
 //! - **Altitudes** are typical mid-latitude heights inside the WMO étages (International Cloud
 //!   Atlas, WMO-No. 407: low étage from the surface to 2 km, middle 2–7 km, high 5–13 km in
 //!   temperate regions; the same bands as `shared/formats/meteoblue.md`). Cumulonimbus spans all
-//!   three étages, from a low base to an anvil near the tropopause (seed 000 §3.3.10: "spanning
+//!   three étages, from a low base to an anvil near the tropopause (Thomann 2021 §3.3.10: "spanning
 //!   over the whole troposphere").
 //! - **Densities** are extinction coefficients from the geometric-optics relation
 //!   `σ ≈ 3·LWC / (2·ρ·r_e)` (Stephens 1978, extinction efficiency ≈ 2). LWC is the liquid (or
@@ -145,7 +145,7 @@ pub struct CloudLayer {
     /// leaves every field alone ("play" mode). Default true.
     pub weather_driven: bool,
     /// The layer's coverage toward distant places, so the weather can change across the view
-    /// (seed 000 §4.4–4.5: Bern's forecast in the foreground, Solothurn's toward Solothurn).
+    /// (Thomann 2021 §4.4–4.5: Bern's forecast in the foreground, Solothurn's toward Solothurn).
     /// [`CloudLayer::coverage`] holds near the first place of each entry and each entry's
     /// coverage from 30 % of the way to its place onward (see [`FarCoverage`]). The renderer
     /// uses the first [`MAX_FAR_COVERAGES`]. The weather mapping fills it from
@@ -358,7 +358,7 @@ mod tests {
                 (0.0, 0.0, [0.0, 0.0])
             );
             // Every profile fades to nothing at both ends of the layer and peaks high enough to
-            // show: soft layer boundaries (seed 002's DensityAltering intent).
+            // show: soft layer boundaries (Pérez Martín 2022's DensityAltering intent).
             let values = grid(&layer.profile, 100);
             assert_eq!(values[0], 0.0, "{kind}");
             assert_eq!(values[100], 0.0, "{kind}");

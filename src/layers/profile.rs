@@ -37,7 +37,7 @@ pub enum ProfileInterpolation {
     Smooth,
 }
 
-/// Relative cloud density against height in a layer: Aetherius' shape-altering curve (seed 002,
+/// Relative cloud density against height in a layer: Aetherius' shape-altering curve (Pérez Martín 2022,
 /// "Density Model"). The renderer multiplies the base-shape noise by it before the coverage
 /// remap. Where the profile is low, only the strongest noise survives the remap, which narrows
 /// the clouds there. Where it is high, they fill out. The profile's shape is therefore the shape
@@ -122,7 +122,7 @@ impl DensityProfile {
 
     /// Cumulus: a short ramp at the base (a flat, well-defined base, rounded by the smooth
     /// curve), full density in the lower half, then a long taper. The taper narrows the clouds
-    /// into domes, and the renderer's detail erosion makes the domes billow. This is seed 002's
+    /// into domes, and the renderer's detail erosion makes the domes billow. This is Pérez Martín 2022's
     /// "no density at the bottom, full density somewhere in the middle … fades to zero density
     /// again at the top", with the peak low as in a convective heap.
     #[must_use]
@@ -206,7 +206,7 @@ impl DensityProfile {
     /// Cumulonimbus: a tall tower whose density stays high all the way up. It bulges slightly in
     /// the upper third where the anvil spreads, and drops only in the last few per cent, so the
     /// anvil's top is flat. Because the profile is high near the top, the coverage remap keeps
-    /// wide cloud there, and that is the anvil widening (seed 000 §3.3.10: "Their top is often
+    /// wide cloud there, and that is the anvil widening (Thomann 2021 §3.3.10: "Their top is often
     /// shaped like an anvil, whereas the base is flat and dark").
     #[must_use]
     pub fn cumulonimbus() -> Self {
@@ -317,7 +317,7 @@ impl DensityProfile {
 
     /// Samples the curve into `table` for the GPU: entry `i` of `n` is the density at the
     /// texel centre `(i + 0.5) / n`. That makes the table a 1D texture read with linear
-    /// filtering, the array seed 002 passes to its shader ("sampled into an array of values in
+    /// filtering, the array Pérez Martín 2022 passes to its shader ("sampled into an array of values in
     /// the CPU when the curve is modified").
     pub fn bake(&self, table: &mut [f32]) {
         let n = table.len() as f32;

@@ -15,10 +15,10 @@
 //! - **Worley**: cellular noise F1 (Worley 1996, "A Cellular Texture Basis Function") with one
 //!   feature point per cell, searched over the 27 neighbouring cells and **inverted** to
 //!   `1 - min(F1, 1)`, so cells are bright in the middle and dark at their edges: the "billowy"
-//!   look of seed 002 ("Worley Noise", Figure 24.b).
+//!   look of Pérez Martín 2022 ("Worley Noise", Figure 24.b).
 //! - **fBm**: octave `k` has `frequency * 2^k` cells per texture period and amplitude
-//!   `persistence^k`; the sum is divided by the sum of amplitudes (seed 002, Figure 28).
-//! - **Perlin-Worley**: Perlin fBm dilated by Worley fBm through [`remap`] (seed 002, "Cloud
+//!   `persistence^k`; the sum is divided by the sum of amplitudes (Pérez Martín 2022, Figure 28).
+//! - **Perlin-Worley**: Perlin fBm dilated by Worley fBm through [`remap`] (Pérez Martín 2022, "Cloud
 //!   textures"; Schneider 2015).
 //! - **Curl**: the 2D curl of a Perlin fBm potential, for distorting the detail look-ups.
 //!
@@ -26,7 +26,7 @@
 //!
 //! A noise with a period of `n` cells hashes the lattice cell *wrapped* into `[0, n)` with a true
 //! modulo ([`wrap_cell`]), so `f(p + n·k) = f(p)` for every integer `k`, negative ones included
-//! (seed 000 §5.3: HLSL's and WGSL's `%` keep the dividend's sign and leave seams at negative
+//! (Thomann 2021 §5.3: HLSL's and WGSL's `%` keep the dividend's sign and leave seams at negative
 //! coordinates). The fBm functions take positions in *texture units*, where one texture period
 //! is `1.0`; a frequency is a whole number of cells per period, so every octave tiles.
 //!
@@ -65,7 +65,7 @@
 use bevy::reflect::Reflect;
 
 /// Most fBm octaves evaluated; larger counts are clamped. Beyond about five octaves the
-/// difference is negligible (seed 002, Figure 29) and `frequency * 2^k` would soon outrun the
+/// difference is negligible (Pérez Martín 2022, Figure 29) and `frequency * 2^k` would soon outrun the
 /// texel grid.
 pub const MAX_OCTAVES: u32 = 8;
 
@@ -95,7 +95,7 @@ pub const CURL_STEP_CELLS: f64 = 1.0 / 256.0;
 /// The Perlin fBm of the default recipe has a standard deviation of about 0.16, so a plain
 /// `0.5 + 0.5 * perlin` stays near 0.5 and lifts every texel by half the gap to 1, leaving
 /// Perlin-Worley a flat 0.73 ± 0.06. With a gain of 4 the Perlin saturates to 1 where it
-/// exceeds 1.5 standard deviations, about 6 % of the volume (solid cloud cores: seed 002's "no
+/// exceeds 1.5 standard deviations, about 6 % of the volume (solid cloud cores: Pérez Martín 2022's "no
 /// gaps in the denser parts"), and to 0 in as much again (pure Worley cells there), and
 /// Perlin-Worley spreads to 0.74 ± 0.17: the classic look of Schneider 2015's Perlin-Worley.
 pub const PERLIN_WORLEY_CONTRAST: f64 = 4.0;
@@ -172,7 +172,7 @@ impl FbmRecipe {
     }
 }
 
-/// Recipe of the base-shape texture (seed 002, "Cloud textures", first texture).
+/// Recipe of the base-shape texture (Pérez Martín 2022, "Cloud textures", first texture).
 #[derive(Clone, Debug, PartialEq, Reflect)]
 pub struct BaseRecipe {
     /// Perlin fBm of the R channel (Perlin-Worley). Default: 4 cells, 4 octaves, 0.5.
@@ -199,8 +199,8 @@ impl Default for BaseRecipe {
     }
 }
 
-/// Recipe of the detail texture (seed 002, "Cloud textures", second texture). Its A channel is
-/// always 1: seed 002 leaves it unused.
+/// Recipe of the detail texture (Pérez Martín 2022, "Cloud textures", second texture). Its A channel is
+/// always 1: Pérez Martín 2022 leaves it unused.
 #[derive(Clone, Debug, PartialEq, Reflect)]
 pub struct DetailRecipe {
     /// Worley fBm of the R, G and B channels at rising frequencies. Default: 2, 4 and 8 cells
@@ -224,7 +224,7 @@ impl Default for DetailRecipe {
 /// Recipe of the 2D weather noise, from which the weather-map pass builds per-layer coverage.
 #[derive(Clone, Debug, PartialEq, Reflect)]
 pub struct WeatherNoiseRecipe {
-    /// Perlin fBm of the R channel (coverage Perlin-Worley, as seed 002's first weather-map
+    /// Perlin fBm of the R channel (coverage Perlin-Worley, as Pérez Martín 2022's first weather-map
     /// prototype). Default: 4 cells, 5 octaves, 0.5.
     pub coverage_perlin: FbmRecipe,
     /// Worley fBm that dilates the coverage Perlin fBm. Default: 8 cells, 3 octaves, 0.5.
@@ -249,7 +249,7 @@ impl Default for WeatherNoiseRecipe {
 
 /// Everything that determines the cloud-noise textures. Equal recipes give identical textures.
 ///
-/// The default follows seed 002 ("Cloud textures"): a 128³ base texture (Perlin-Worley plus three
+/// The default follows Pérez Martín 2022 ("Cloud textures"): a 128³ base texture (Perlin-Worley plus three
 /// Worley fBm), a 32³ detail texture (three Worley fBm) and a 2D weather noise.
 #[derive(Clone, Debug, PartialEq, Reflect)]
 pub struct NoiseRecipe {
@@ -342,7 +342,7 @@ pub fn noise_seed(seed: u32, slot: FbmSlot) -> u32 {
 }
 
 /// True modulo of a lattice cell index: `cell - period * floor(cell / period)`, in
-/// `[0, period)` for negative cells too (seed 000 §5.3: `%` keeps the sign of the dividend, so
+/// `[0, period)` for negative cells too (Thomann 2021 §5.3: `%` keeps the sign of the dividend, so
 /// `-5 % 3 = -2` where tiling needs 1). `period` must be at least 1. WGSL twin: `wrap_cell`.
 pub fn wrap_cell(cell: i64, period: u32) -> u32 {
     let period = i64::from(period);
@@ -425,7 +425,7 @@ fn perlin_corner(lo: [u32; 3], hi: [u32; 3], f: [f64; 3], corner: [u32; 3], seed
 /// recipes). WGSL twin: `perlin_noise_3d`.
 pub fn perlin_noise_3d(p: [f64; 3], period: u32, seed: u32) -> f64 {
     let (cell, f) = split_cell(p);
-    // Corner 0 and corner 1 of each axis, wrapped so the lattice repeats (seed 000 §5.3).
+    // Corner 0 and corner 1 of each axis, wrapped so the lattice repeats (Thomann 2021 §5.3).
     let lo = cell.map(|c| wrap_cell(c, period));
     let hi = cell.map(|c| wrap_cell(c + 1, period));
     let u = f.map(fade);
@@ -443,7 +443,7 @@ pub fn perlin_noise_3d(p: [f64; 3], period: u32, seed: u32) -> f64 {
 /// One feature point per cell, placed by the cell's hash. Searching the 27 cells around `p` is
 /// exact for the clamped F1: a point two or more cells away along any axis is at least one cell
 /// from `p`, so it could only matter where F1 ≥ 1, which the clamp maps to 0 anyway. The
-/// inversion makes bright, round cells with dark edges, the "billowy" shapes of seed 002
+/// inversion makes bright, round cells with dark edges, the "billowy" shapes of Pérez Martín 2022
 /// (Figure 24.b). WGSL twin: `worley_noise_3d`.
 pub fn worley_noise_3d(p: [f64; 3], period: u32, seed: u32) -> f64 {
     let (cell, f) = split_cell(p);
@@ -479,7 +479,7 @@ enum Octave {
     Worley,
 }
 
-/// The fBm sum (seed 002, Figure 28) shared by [`perlin_fbm_3d`] and [`worley_fbm_3d`].
+/// The fBm sum (Pérez Martín 2022, Figure 28) shared by [`perlin_fbm_3d`] and [`worley_fbm_3d`].
 /// WGSL twin: `fbm_3d`.
 fn fbm_3d(p: [f64; 3], fbm: &FbmRecipe, seed: u32, octave: Octave) -> f64 {
     let octaves = fbm.octaves.clamp(1, MAX_OCTAVES);
@@ -516,7 +516,7 @@ pub fn worley_fbm_3d(p: [f64; 3], fbm: &FbmRecipe, seed: u32) -> f64 {
     fbm_3d(p, fbm, seed, Octave::Worley)
 }
 
-/// Linear remap of `value` from `[old_min, old_max]` to `[new_min, new_max]` (seed 002,
+/// Linear remap of `value` from `[old_min, old_max]` to `[new_min, new_max]` (Pérez Martín 2022,
 /// Figure 30). WGSL twin: `remap`.
 pub fn remap(value: f64, old_min: f64, old_max: f64, new_min: f64, new_max: f64) -> f64 {
     new_min + (value - old_min) / (old_max - old_min) * (new_max - new_min)
@@ -534,7 +534,7 @@ pub fn signed_to_unit(value: f64, contrast: f64) -> f64 {
 /// The Perlin fBm, mapped to `[0, 1]` with gain [`PERLIN_WORLEY_CONTRAST`], is remapped into
 /// `[worley, 1]`: `remap(perlin, 0, 1, worley, 1) = worley + perlin * (1 - worley)`. The Worley cells dilate
 /// the Perlin blobs, so dense Perlin regions stay solid while their edges take the billowy
-/// Worley shapes (seed 002, "Cloud textures", R channel, after Schneider 2015). WGSL twin:
+/// Worley shapes (Pérez Martín 2022, "Cloud textures", R channel, after Schneider 2015). WGSL twin:
 /// `perlin_worley`.
 pub fn perlin_worley(
     p: [f64; 3],
@@ -871,7 +871,7 @@ mod tests {
 
     #[test]
     fn wrap_cell_is_a_true_modulo() {
-        assert_eq!(wrap_cell(-5, 3), 1, "seed 000 §5.3: -5 mod 3 = 1");
+        assert_eq!(wrap_cell(-5, 3), 1, "Thomann 2021 §5.3: -5 mod 3 = 1");
         assert_eq!(wrap_cell(-3, 3), 0);
         assert_eq!(wrap_cell(-1, 4), 3);
         assert_eq!(wrap_cell(7, 4), 3);
@@ -918,7 +918,7 @@ mod tests {
 
     #[test]
     fn worley_cells_are_bright_at_feature_points() {
-        // The inverted F1 is 1 on a feature point and falls away from it (seed 002, Fig. 24.b).
+        // The inverted F1 is 1 on a feature point and falls away from it (Pérez Martín 2022, Fig. 24.b).
         let seed = 4;
         let h = lattice_hash([1, 2, 3], seed);
         let point = [

@@ -9,7 +9,7 @@
 //!
 //! The planet is a sphere of radius [`MarchSettings::planet_radius_m`] and every cloud layer a
 //! spherical shell around its centre, between [`MarchLayer::base_m`] and [`MarchLayer::top_m`]
-//! above the ground (seed 002, "Atmosphere": concentric spheres, and a ground sphere that stops
+//! above the ground (Pérez Martín 2022, "Atmosphere": concentric spheres, and a ground sphere that stops
 //! the ray). All positions are **relative to the camera** and every distance along a ray is
 //! computed from the camera altitude `h` and `mu = dot(direction, up)`, never from absolute
 //! positions near the planet centre: in f32 a radius of 6 371 km resolves only half a metre, and a
@@ -26,7 +26,7 @@
 //!   [`next_cloud_interval`] merges the pieces of every layer, so the march visits only the
 //!   intervals where some layer is, in order, whatever the camera altitude.
 //!
-//! # Density (seed 002, "Density Model"; Schneider 2015)
+//! # Density (Pérez Martín 2022, "Density Model"; Schneider 2015)
 //!
 //! [`layer_density`]: the height fraction in the layer picks a density from the layer's
 //! profile (Aetherius' shape-altering curve, piecewise linear here); the weather noise sets a
@@ -38,15 +38,15 @@
 //! homogeneous slab whose density is the profile shaped by coverage only, which has a closed form
 //! ([`homogeneous_slab`]).
 //!
-//! # Light (Hillaire 2016; Wrenninge 2013; seed 002, "Cloud Lighting")
+//! # Light (Hillaire 2016; Wrenninge 2013; Pérez Martín 2022, "Cloud Lighting")
 //!
 //! At each sample the source term is `σs (E_sun · Σᵢ bⁱ e^(−aⁱ τ) p(cⁱ g) + L_ambient(height))`:
 //! `τ` is the optical depth toward the sun from a short light march to the exit of the layer
 //! shell ([`sun_optical_depth`]), the sum over octaves is Wrenninge 2013's multiple-scattering
-//! approximation ([`multiple_scattering`], seed 002 "Multiple Scattering Approximation":
+//! approximation ([`multiple_scattering`], Pérez Martín 2022 "Multiple Scattering Approximation":
 //! a = 0.3, b = 0.75, c = 0.5, N = 4), `p` the dual-lobe Henyey-Greenstein phase
 //! ([`dual_lobe_phase`], Hillaire 2016) and the ambient sky radiance is interpolated between the
-//! bottom and top of the layer (seed 002, "Day / Night Cycle"). Each step integrates the source
+//! bottom and top of the layer (Pérez Martín 2022, "Day / Night Cycle"). Each step integrates the source
 //! against the transmittance across the step analytically (Hillaire 2016, "Physically Based Sky,
 //! Atmosphere and Cloud Rendering in Frostbite"): `∫₀^dt e^(−σt x) S dx =
 //! S dt (1 − e^(−σt dt)) / (σt dt)`, with the last factor from [`mean_step_transmittance`], which
@@ -104,7 +104,7 @@ pub const MAX_PRIMARY_STEPS: u32 = 1024;
 pub const MAX_LIGHT_STEPS: u32 = 64;
 
 /// Sub-steps covered by one cheap, base-only sample while the march looks for cloud (the long
-/// stride of Schneider 2015's two-level stepping, seed 002 "Optimization": "Dynamic Steps with
+/// stride of Schneider 2015's two-level stepping, Pérez Martín 2022 "Optimization": "Dynamic Steps with
 /// Density").
 pub const CHEAP_STRIDE: u32 = 4;
 
@@ -172,7 +172,7 @@ pub const WGSL_SERIES_LIMIT: f64 = 0.1;
 pub const MAX_PHASE_G: f64 = 0.999;
 
 /// Weights of the three Worley fBm channels (G, B, A) of the base texture in the low-frequency
-/// fBm that carves the Perlin-Worley channel (seed 002, Figure 36: 0.625, 0.25, 0.125). The
+/// fBm that carves the Perlin-Worley channel (Pérez Martín 2022, Figure 36: 0.625, 0.25, 0.125). The
 /// detail fBm weighs its R, G, B channels the same way.
 pub const FBM_WEIGHTS: [f64; 3] = [0.625, 0.25, 0.125];
 
@@ -220,21 +220,21 @@ pub struct MarchSettings {
     /// one ([`light_step_count`]). Default 6.
     pub light_steps: u32,
     /// Growth of the primary step length with distance, per metre: a step at distance `t` is
-    /// `1 + step_growth · t` times as long as one at the camera (seed 002, "Dynamic Steps Over
+    /// `1 + step_growth · t` times as long as one at the camera (Pérez Martín 2022, "Dynamic Steps Over
     /// Distance"). 0 gives uniform steps in each interval. Default 0.001 (steps at 10 km are 11
     /// times those at the camera).
     pub step_growth: f64,
-    /// The march stops once the view transmittance falls to this value (seed 002; Schneider
+    /// The march stops once the view transmittance falls to this value (Pérez Martín 2022; Schneider
     /// 2015). 0 marches to the end. Default 0.01.
     pub transmittance_cutoff: f64,
     /// Multiple-scattering octaves (Wrenninge 2013), clamped to `1..=MAX_SCATTERING_OCTAVES`;
-    /// 1 is single scattering. Default 4 (seed 002).
+    /// 1 is single scattering. Default 4 (Pérez Martín 2022).
     pub octaves: u32,
-    /// Extinction attenuation `a` per octave (Wrenninge 2013). Default 0.3 (seed 002).
+    /// Extinction attenuation `a` per octave (Wrenninge 2013). Default 0.3 (Pérez Martín 2022).
     pub ms_attenuation: f64,
-    /// Contribution `b` per octave (Wrenninge 2013). Default 0.75 (seed 002).
+    /// Contribution `b` per octave (Wrenninge 2013). Default 0.75 (Pérez Martín 2022).
     pub ms_contribution: f64,
-    /// Phase eccentricity attenuation `c` per octave (Wrenninge 2013). Default 0.5 (seed 002).
+    /// Phase eccentricity attenuation `c` per octave (Wrenninge 2013). Default 0.5 (Pérez Martín 2022).
     pub ms_eccentricity: f64,
     /// Asymmetry of the forward Henyey-Greenstein lobe (Hillaire 2016). Default 0.8.
     pub phase_g_forward: f64,
@@ -243,7 +243,7 @@ pub struct MarchSettings {
     /// Weight of the backward lobe, 0–1 (the forward lobe gets `1 − blend`). Default 0.2.
     pub phase_blend: f64,
     /// Angle one pixel subtends, radians: the footprint of a sample at distance `t` is
-    /// `t · pixel_angle_rad`, and the noise mip level follows it (seed 002, "LODs Over
+    /// `t · pixel_angle_rad`, and the noise mip level follows it (Pérez Martín 2022, "LODs Over
     /// Distance"). Default 0.001 (a 60° field of view over about 1000 pixels).
     pub pixel_angle_rad: f64,
     /// Jitter the ray start per pixel with blue noise ([`ray_start_jitter`]).
@@ -324,7 +324,7 @@ pub struct MarchLayer {
     /// Metres per period of the detail noise. Default 1200.
     pub detail_scale_m: f64,
     /// Strength of the detail erosion, clamped to `0..=MAX_DETAIL_EROSION`. Default 0.35
-    /// (seed 002's factor).
+    /// (Pérez Martín 2022's factor).
     pub detail_erosion: f64,
     /// How much the base and detail noise shape the cloud, 0–1: 0 is a homogeneous slab whose
     /// density is the profile shaped by coverage only. Default 1.
@@ -352,7 +352,7 @@ pub struct MarchLayer {
     /// Offset of the broad shape warp's look-up ([`shape_warp`]), metres, wrapped by its period
     /// [`BROAD_WARP_PERIODS`] · [`MarchLayer::shape_scale_m`]. Default 0.
     pub warp_offset_m: [f64; 2],
-    /// Displacement added to the weather look-up per metre above the base (seed 002, "Wind and
+    /// Displacement added to the weather look-up per metre above the base (Pérez Martín 2022, "Wind and
     /// Skew"). Like the offsets, a look-up moved by `+d` shows the pattern moved by `−d`: for
     /// clouds whose tops lean downwind set it to `−skew · wind direction` (unit). Default 0.
     pub skew: [f64; 2],
@@ -700,7 +700,7 @@ pub(super) fn is_positive(x: f64) -> bool {
 /// `b = A mu` and `c = (h − alt)(2R + h + alt)`: a product of the small altitude difference, so
 /// a camera on or near the sphere keeps its precision. The discriminant
 /// `(alt − h)(2R + alt + h) + A² mu²` and the stable quadratic `q = −(b + sign(b)·√disc)`, roots
-/// `q` and `c / q`, avoid subtracting nearly equal numbers (seed 002, "Atmosphere", done in
+/// `q` and `c / q`, avoid subtracting nearly equal numbers (Pérez Martín 2022, "Atmosphere", done in
 /// camera-relative form). A tangent ray (`disc = 0`) returns a double root; `q = 0` happens only
 /// for a tangent ray from a camera on the sphere, whose double root is 0. WGSL twin:
 /// `intersect_altitude_sphere`.
@@ -896,7 +896,7 @@ pub fn step_warp(u: f64, beta: f64) -> f64 {
 
 /// The layer's profile at `height_fraction` (0 base, 1 top): piecewise linear between its
 /// points, the end values held beyond them, 1 with no points. Aetherius' shape-altering curve
-/// (seed 002, "Density Model"), baked to at most [`MAX_PROFILE_POINTS`] points. WGSL twin:
+/// (Pérez Martín 2022, "Density Model"), baked to at most [`MAX_PROFILE_POINTS`] points. WGSL twin:
 /// `profile_density`.
 pub fn profile_density(layer: &MarchLayer, height_fraction: f64) -> f64 {
     let count = (layer.profile_points as usize).min(MAX_PROFILE_POINTS);
@@ -963,7 +963,7 @@ pub const CLOSING_COVERAGE: f64 = 0.75;
 
 /// Local coverage `κ`, 0–1, from the layer's `coverage` (0–1) and the weather noise's coverage
 /// channel `weather` (0–1): where the weather map makes clouds form and how much of the shape
-/// noise becomes cloud there (seed 002, "Density Model").
+/// noise becomes cloud there (Pérez Martín 2022, "Density Model").
 ///
 /// The weather value is stretched over [`WEATHER_COVERAGE_RANGE`] to `w`. Cloudy patches cover
 /// about `area = min(PATCH_AREA_GAIN · coverage, BROKEN_PATCH_AREA)` of the map: the patch field
@@ -1177,7 +1177,7 @@ pub fn coverage_height_scale(coverage_height: f64, fill: f64) -> f64 {
     1.0 - s * gap * gap
 }
 
-/// Linear remap of `value` from `[old_min, old_max]` to `[new_min, new_max]` (seed 002, Figure
+/// Linear remap of `value` from `[old_min, old_max]` to `[new_min, new_max]` (Pérez Martín 2022, Figure
 /// 30). WGSL twin: `remap`.
 pub fn remap(value: f64, old_min: f64, old_max: f64, new_min: f64, new_max: f64) -> f64 {
     new_min + (value - old_min) / (old_max - old_min) * (new_max - new_min)
@@ -1185,7 +1185,7 @@ pub fn remap(value: f64, old_min: f64, old_max: f64, new_min: f64, new_max: f64)
 
 /// The billowy base shape from a base-texture sample: the Perlin-Worley channel R carved by the
 /// low-frequency Worley fBm of G, B, A (weights [`FBM_WEIGHTS`]),
-/// `saturate(remap(R, fbm − 1, 1, 0, 1))` (seed 002, Figure 36; Schneider 2015). WGSL twin:
+/// `saturate(remap(R, fbm − 1, 1, 0, 1))` (Pérez Martín 2022, Figure 36; Schneider 2015). WGSL twin:
 /// `base_shape`.
 pub fn base_shape(sample: [f64; 4]) -> f64 {
     let fbm = sample[1] * FBM_WEIGHTS[0] + sample[2] * FBM_WEIGHTS[1] + sample[3] * FBM_WEIGHTS[2];
@@ -1195,7 +1195,7 @@ pub fn base_shape(sample: [f64; 4]) -> f64 {
 /// Detail erosion amount, 0–1, from a detail-texture sample at `height_fraction`: the detail
 /// fBm (R, G, B weighted by [`FBM_WEIGHTS`]) near the base and its inverse above
 /// [`DETAIL_TRANSITION_HEIGHT`], so the bottoms erode into wisps and the tops into billows
-/// (seed 002, Figure 36: `lerp(fbm, 1 − fbm, saturate(h · 5))`; Schneider 2015). WGSL twin:
+/// (Pérez Martín 2022, Figure 36: `lerp(fbm, 1 − fbm, saturate(h · 5))`; Schneider 2015). WGSL twin:
 /// `detail_erosion`.
 pub fn detail_erosion(sample: [f64; 4], height_fraction: f64) -> f64 {
     let fbm = sample[0] * FBM_WEIGHTS[0] + sample[1] * FBM_WEIGHTS[1] + sample[2] * FBM_WEIGHTS[2];
@@ -1207,7 +1207,7 @@ pub fn detail_erosion(sample: [f64; 4], height_fraction: f64) -> f64 {
 }
 
 /// Mip level for a sample whose footprint is `footprint_m` on a texture whose texels are
-/// `texel_m` apart: `log2(footprint / texel)`, at least 0 (seed 002, "LODs Over Distance").
+/// `texel_m` apart: `log2(footprint / texel)`, at least 0 (Pérez Martín 2022, "LODs Over Distance").
 /// WGSL twin: `texture_lod`.
 pub fn texture_lod(footprint_m: f64, texel_m: f64) -> f64 {
     (footprint_m / texel_m).max(1.0).log2()
@@ -1219,7 +1219,7 @@ pub fn texture_lod(footprint_m: f64, texel_m: f64) -> f64 {
 /// cheap base-only density of the two-level march: never smaller than the full one, so it finds
 /// every cloud the full density would.
 ///
-/// Seed 002's model ("Density Model"; Schneider 2015): the profile at the height fraction times
+/// Pérez Martín 2022's model ("Density Model"; Schneider 2015): the profile at the height fraction times
 /// the base shape (looked up displaced by [`shape_warp`]), remapped by the local coverage `κ`
 /// as `saturate(remap(shape · profile, 1 − κ, 1, 0, 1)) · fill`, with `fill` the
 /// [`patch_fill`] of `κ`, then eroded by the detail, `saturate(remap(d, erosion, 1, 0, 1))`. The shape and the erosion are blended in by
@@ -1487,10 +1487,8 @@ pub fn sun_optical_depth(
 /// frame. The view samples are jittered ([`ray_start_jitter`]) and the temporal accumulation
 /// averages them, but averaging the light march over offsets averages `e^(−τ)`, not `τ`: where
 /// the optical depth toward the sun changes with the offset, the mean of the transmittances is
-/// brighter than the transmittance of the mean (Jensen's inequality). With the light samples
-/// following the view ray's jitter, the `bench` example's sunset scene (160×90) came out 3.3 %
-/// from a march with 256 midpoint light steps for `HIGH`, against 0.9 % with the midpoints; a
-/// 64-step midpoint march was 0.4 % from it. WGSL twin: `LIGHT_SAMPLE_OFFSET`.
+/// brighter than the transmittance of the mean (Jensen's inequality), a bias that shows most
+/// under a low sun. WGSL twin: `LIGHT_SAMPLE_OFFSET`.
 pub const LIGHT_SAMPLE_OFFSET: f64 = 0.5;
 
 /// Light path over which a light march takes its [`MarchSettings::light_steps`], metres: a
@@ -1536,7 +1534,7 @@ pub fn mean_step_transmittance(x: f64) -> f64 {
 
 /// Offset of the first sample within each step, 0–1: blue noise at `pixel`, animated per frame
 /// ([`blue_noise_jitter`](super::blue_noise::blue_noise_jitter)), when
-/// [`MarchSettings::jitter`] is on (against banding, seed 002 "Banding Reduction"), the step
+/// [`MarchSettings::jitter`] is on (against banding, Pérez Martín 2022 "Banding Reduction"), the step
 /// midpoint 0.5 when off. WGSL twin: `ray_start_jitter`.
 pub fn ray_start_jitter(settings: &MarchSettings, pixel: [f64; 2]) -> f64 {
     if settings.jitter {
@@ -1648,7 +1646,7 @@ impl Ray<'_> {
             let sigma = layer_density(self.textures, layer, horizontal, altitude, footprint, true);
             if sigma > 0.0 {
                 let sigma_s = sigma * scattering_albedo(layer);
-                // Ambient sky light grows from the base to the top of the layer (seed 002,
+                // Ambient sky light grows from the base to the top of the layer (Pérez Martín 2022,
                 // "Day / Night Cycle").
                 let h = saturate((altitude - layer.base_m) / (layer.top_m - layer.base_m));
                 for (c, a) in medium.ambient.iter_mut().enumerate() {
@@ -1935,7 +1933,7 @@ pub const fn march_passes(steps: u32) -> u32 {
 /// The ray visits only the intervals where it crosses active layers ([`next_cloud_interval`],
 /// stopped at the ground), each in [`MarchSettings::primary_steps`] steps that grow with
 /// distance; cheap base-only samples stride through empty space and full-detail samples light
-/// the cloud (seed 002, "Optimization"); the march stops once the transmittance reaches
+/// the cloud (Pérez Martín 2022, "Optimization"); the march stops once the transmittance reaches
 /// [`MarchSettings::transmittance_cutoff`]. At most `2 · layers + 1` intervals are visited.
 /// `shadow` is the cloud shadow map, read for the sun of samples beyond
 /// [`MarchSettings::sun_from_shadow_map_m`]. WGSL twin: `march_clouds`.

@@ -60,8 +60,7 @@ pub struct VolumetricClouds {
     pub primary_steps: u32,
     /// Steps of the light march toward the sun from each sample (0–64; 0 = unshadowed), over
     /// a light path up to 2 km long; a longer path (a low sun's) takes proportionally more, up
-    /// to 64 ([`crate::reference::render::light_step_count`]). Default 24 (`LOW` 16, `ULTRA`
-    /// 32).
+    /// to 64. Default 24 (`LOW` 20, `ULTRA` 32).
     pub light_steps: u32,
     /// How fast steps grow with distance from the camera, 1/m: a step at distance `d` is
     /// `1 + step_growth · d` times longer than one at the camera. 0 keeps steps even.
@@ -110,11 +109,7 @@ pub struct VolumetricClouds {
     /// is two density samples instead of [`VolumetricClouds::light_steps`], but the map is a
     /// coarse stand-in for the light march: its texels (156 m at the default 40 km and 256²)
     /// blur the clouds' edges, and under a low sun its bilinear blend mixes sun lines that pass
-    /// the same altitude kilometres apart (the likely cause of the sunset figure below, not
-    /// measured apart). In the `bench` example (160×90, one run with the map on,
-    /// before the light march sampled its steps' midpoints), reading it from 2.5 km on put
-    /// `LOW` at 9.9 % error in noon cumulus (1.9 % without), from 10 km on put `HIGH` at 2.6 %
-    /// (0.8 %), and at sunset (sun 4° up) `HIGH` at 58 % (3.4 %). Without
+    /// the same altitude kilometres apart, so a low sun's far clouds come out wrong. Without
     /// a map (shadows off, night) the light march runs everywhere. Opt in for a large view of
     /// far clouds under a high sun, where the light march's cost matters more than their
     /// lighting. Default `f32::INFINITY` (never) in every preset.
@@ -130,10 +125,8 @@ pub struct VolumetricClouds {
     /// path, up to 64; a far sample's density is filtered over its footprint (the distance
     /// times the angle of a pixel of the march, hundreds of metres far away), so light steps
     /// much shorter than that resample the same blur. Those extra steps stop at this many per
-    /// footprint (never fewer than `light_steps`). In the `bench` example's sunset (160×90)
-    /// one per footprint took `HIGH`'s light-marched frame from 25 % to 14 % of the
-    /// reference's time, at 2.5 % error instead of 1.0 %; two per footprint gave 18 % at
-    /// 1.3 %. `f32::INFINITY`, 0 or less, or NaN: no limit. Default 1 (`HIGH` 2, `ULTRA` no
+    /// footprint (never fewer than `light_steps`), which matters most at sunset, where light
+    /// paths are longest. `f32::INFINITY`, 0 or less, or NaN: no limit. Default 1 (`HIGH` 2, `ULTRA` no
     /// limit).
     pub light_steps_per_footprint: f32,
     /// Side of each layer's weather map, in weather-noise texels ([`weather_map`]): the march
@@ -154,11 +147,8 @@ pub struct VolumetricClouds {
 
 impl VolumetricClouds {
     /// The cheapest: [`VolumetricClouds::MEDIUM`]'s half resolution with 256 primary and 20
-    /// light steps, a 30 m shortest primary step, 8 haze steps and no light shafts. In the
-    /// `bench` example (160×90, lavapipe, after 32 still frames) it comes within 1.3 % of a
-    /// converged march in noon cumulus, 0.1 % in stratus, 1.5 % in the grazing view, 2.1 % inside
-    /// a cumulus and 5.0 % at sunset, at 0.4–3.1 % of the reference's time, 0.65–0.86 times
-    /// `MEDIUM`'s (one run; 3.7 % at sunset in another).
+    /// light steps, a 30 m shortest primary step, 8 haze steps and no light shafts. Measured
+    /// time and error: `docs/performance.md`.
     pub const LOW: Self = Self {
         primary_steps: 256,
         light_steps: 20,
@@ -173,11 +163,8 @@ impl VolumetricClouds {
     /// over four frames ([`composite::TemporalUpsampling`]). A still view converges close to a
     /// full-resolution march; while the camera moves the clouds are softer, each pixel taking
     /// new data only every fourth frame. It keeps all scattering octaves: they cost arithmetic
-    /// only, and dropping them darkens the clouds (a bias the bench measured at about 40 %
-    /// relative error in overcast). In the `bench` example (160×90, lavapipe, after 32
-    /// still frames) it comes within 1.0 % of a converged march in noon cumulus, 0.1 % in
-    /// stratus, 1.2 % in the grazing view, 1.5 % inside a cumulus and 4.4 % at sunset, at
-    /// 0.5–4.7 % of the reference's time.
+    /// only, and dropping them darkens the clouds, most in overcast. Measured time and error:
+    /// `docs/performance.md`.
     pub const MEDIUM: Self = Self {
         primary_steps: 384,
         light_steps: 24,
@@ -197,12 +184,9 @@ impl VolumetricClouds {
         reset_history: false,
     };
     /// More steps for close-ups and stills: 512 primary and 24 light steps at full resolution,
-    /// two light steps per footprint at most beyond those, a 30 m shortest primary step. In the
-    /// `bench` example (160×90, lavapipe) it comes within 0.8 % of a converged march in
-    /// cumulus, 0.1 % in stratus, 1.1 % inside a cumulus, 0.9 % in the grazing view and 1.7 % at
-    /// sunset, at 1.1–11.9 % of the reference's time (11.9 % at sunset in that run; 11.7–14.9 %
-    /// in four others). The 30 m shortest step keeps its cost down: with 20 m it took 16.7 %
-    /// of the reference's time at sunset (before the broad shape warp).
+    /// two light steps per footprint at most beyond those, a 30 m shortest primary step (a
+    /// shorter one costs most at sunset, for little). Measured time and error:
+    /// `docs/performance.md`.
     pub const HIGH: Self = Self {
         primary_steps: 512,
         light_steps: 24,

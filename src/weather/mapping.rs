@@ -1,9 +1,9 @@
 //! From a sampled forecast ([`WeatherState`]) to cloud layers ([`CloudLayer`]).
 //!
-//! The mapping fills five named [`LayerSlot`]s, following the layer structure of seed 000 §4.2.
+//! The mapping fills five named [`LayerSlot`]s, following the layer structure of Thomann 2021 §4.2.
 //! A high layer holds the cirrus family, a mid layer altostratus or altocumulus, and a low layer
 //! cumulus, stratocumulus or stratus. Ground fog gets its own layer. A cumulonimbus layer spans
-//! the others. Nimbostratus is not a kind of its own; as seed 000 §4.2.6 proposes, it is imitated
+//! the others. Nimbostratus is not a kind of its own; as Thomann 2021 §4.2.6 proposes, it is imitated
 //! by darkened, thickened altostratus over darkened stratus.
 //!
 //! [`WeatherMapping::map`] digests a state once into a [`MappedWeather`].
@@ -19,14 +19,14 @@
 //!
 //! | forecast input | drives | rule | why |
 //! |---|---|---|---|
-//! | `lowclouds` (`low_cover`) | Low: coverage, kind; Convective: coverage | coverage = cover. Kind: stratus when the weather code says fog (16–18) or steady precipitation (23–26, 33–35), or when cover ≥ 0.9 with precipitation ≥ 0.1 mm/h; otherwise cumulus when the code says showers or thunder, or convective precipitation ≥ 0.1 mm/h; otherwise stratocumulus when cover ≥ 0.6, else cumulus | the meteoblue low band is surface–2 km; broken convective cloud is cumulus, a closed deck stratocumulus, a raining closed deck stratus (seed 000 §3.3.7–3.3.9) |
-//! | `midclouds` (`mid_cover`) | Mid: coverage, kind | coverage = cover; altostratus when cover ≥ 0.7, or ≥ 0.5 with precipitation, else altocumulus | altostratus "usually cover the whole sky" and precede rain; altocumulus are patches (seed 000 §3.3.4–3.3.5) |
-//! | `highclouds` (`high_cover`) | High: coverage, kind | coverage = cover; cirrostratus when cover ≥ 0.7, else cirrus (cirrocumulus is never chosen: it is rare and not predictable from these variables; set it by hand) | a sky-wide high veil is cirrostratus (seed 000 §3.3.2) |
+//! | `lowclouds` (`low_cover`) | Low: coverage, kind; Convective: coverage | coverage = cover. Kind: stratus when the weather code says fog (16–18) or steady precipitation (23–26, 33–35), or when cover ≥ 0.9 with precipitation ≥ 0.1 mm/h; otherwise cumulus when the code says showers or thunder, or convective precipitation ≥ 0.1 mm/h; otherwise stratocumulus when cover ≥ 0.6, else cumulus | the meteoblue low band is surface–2 km; broken convective cloud is cumulus, a closed deck stratocumulus, a raining closed deck stratus (Thomann 2021 §3.3.7–3.3.9) |
+//! | `midclouds` (`mid_cover`) | Mid: coverage, kind | coverage = cover; altostratus when cover ≥ 0.7, or ≥ 0.5 with precipitation, else altocumulus | altostratus "usually cover the whole sky" and precede rain; altocumulus are patches (Thomann 2021 §3.3.4–3.3.5) |
+//! | `highclouds` (`high_cover`) | High: coverage, kind | coverage = cover; cirrostratus when cover ≥ 0.7, else cirrus (cirrocumulus is never chosen: it is rare and not predictable from these variables; set it by hand) | a sky-wide high veil is cirrostratus (Thomann 2021 §3.3.2) |
 //! | `convective_precipitation` | Convective: present, coverage, rain; Low: kind | a cumulonimbus layer appears at ≥ 1 mm/h (or on a thunder code); coverage = 0.15 + 0.45 · max(1 − e^(−rate/5 mm/h), low cover) | an hourly, grid-mean shower rate of 1 mm/h means intense local cells |
 //! | `pictocode` / WMO `weather_code` | Convective, Fog, Low: kind | thunder 10–12, 27–30 (WMO 95–99) → cumulonimbus; fog 16–18 (WMO 45, 48) → fog coverage ≥ 0.8 and stratus; showers 31–32 (WMO 80–86) → cumulus; steady precipitation 23–26, 33–35 (WMO 51–77) → stratus | the codes say what the model's variables only imply (`shared/formats/meteoblue.md`) |
 //! | `fog_probability` | Fog: coverage | coverage = (p − 0.2) / 0.8, clamped to 0–1 | below 20 % the fog would be noise on a clear view |
 //! | `visibility` | Fog: coverage, density; [`Haze`](crate::layers::Haze) | coverage from 0 at 5 km (mist) to 1 at 1 km (fog), faded out by rain; density = 3.912 / min(visibility, 1 km). Haze visibility = max(visibility, 5 km) | Koschmieder: a 2 % contrast threshold gives σ = ln 50 / V = 3.912 / V; WMO fog is visibility < 1 km; above 5 km the air is haze, not fog |
-//! | `precipitation` | all but High: `precipitation`, `rain_mm_per_h`; Mid: thickness | darkening = 1 − e^(−rate/2.5 mm/h); rain goes to the lowest covered layer (the cumulonimbus takes the convective part); raining altostratus thickens downward by up to 1 km | 2.5 mm/h is where AMS "light" rain ends (moderate darkens 63 %); seed 000 §6.2: precipitation drives cloud colour and the rain particles |
+//! | `precipitation` | all but High: `precipitation`, `rain_mm_per_h`; Mid: thickness | darkening = 1 − e^(−rate/2.5 mm/h); rain goes to the lowest covered layer (the cumulonimbus takes the convective part); raining altostratus thickens downward by up to 1 km | 2.5 mm/h is where AMS "light" rain ends (moderate darkens 63 %); Thomann 2021 §6.2: precipitation drives cloud colour and the rain particles |
 //! | `windspeed`, `winddirection` (10 m) | every layer without level wind: wind | v(z) = v₁₀ · (z / 10 m)^(1/7) at the layer's mid-height | the 1/7 power law (Hellmann; Peterson & Hennessey 1978) |
 //! | wind at 850 / 700 / 500 / 300 hPa | Low / Mid / High / Convective: wind | Low 850 hPa; Mid interpolated between 700 and 500 hPa by height; High 300 hPa; Convective: the mean of all levels | the air at cloud altitude carries the cloud; a storm moves with the mean 850–300 hPa wind (its steering flow) |
 //! | geopotential height of a level | level heights | height above sea level − ground elevation; ICAO standard heights when absent | levels are placed above ground |
@@ -38,7 +38,7 @@
 //! ([`CloudBands::METEOBLUE`], [`CloudBands::OPEN_METEO`]), above ground. Fog spans 0 to
 //! [`WeatherMapping::fog_top_m`].
 //!
-//! Not used: total cover (the sum of the layers; seed 000 uses it only for distant weather, which
+//! Not used: total cover (the sum of the layers; Thomann 2021 uses it only for distant weather, which
 //! is the weather source's job), precipitation probability (the sampled precipitation is already
 //! the expected amount), snow fraction (the layers carry water-equivalent precipitation;
 //! rendering snow is left to a particle system), temperature, humidity, pressure, sunshine, and
@@ -80,7 +80,7 @@ pub const STANDARD_LEVEL_HEIGHTS_M: [f32; STANDARD_LEVELS_HPA.len()] =
 /// range).
 pub const KOSCHMIEDER_CONSTANT: f32 = 3.912;
 
-/// The named layers the mapping fills (seed 000 §4.2: "Layers of Cloud Shaders").
+/// The named layers the mapping fills (Thomann 2021 §4.2: "Layers of Cloud Shaders").
 ///
 /// As a component beside a [`CloudLayer`], it tells the crate's mapping system which slot the
 /// entity is; see [`spawn_weather_layers`].
@@ -296,7 +296,7 @@ pub struct WeatherMapping {
     /// 3 000 m (a towering cumulus; deeper is cumulonimbus).
     pub max_cumulus_depth_m: f32,
     /// How far, metres, a raining altostratus layer grows down at full darkening. Default
-    /// 1 000 m. Seed 000 §4.2.6 imitates nimbostratus by darkening altostratus "as well making
+    /// 1 000 m. Thomann 2021 §4.2.6 imitates nimbostratus by darkening altostratus "as well making
     /// them thicker".
     pub nimbostratus_thickening_m: f32,
 }
@@ -1077,7 +1077,7 @@ impl MappedWeather {
         }
         Self::place_in_band(layer, m.bands.mid);
         if layer.kind == CloudKind::Altostratus {
-            // Nimbostratus substitute (seed 000 §4.2.6): thicker downward as the rain darkens.
+            // Nimbostratus substitute (Thomann 2021 §4.2.6): thicker downward as the rain darkens.
             let grow = m.nimbostratus_thickening_m * self.darkening().unwrap_or(0.0);
             let lowest = m.bands.mid.bottom_m.min(layer.base_m);
             layer.base_m = (layer.base_m - grow).max(lowest);
@@ -1285,7 +1285,7 @@ pub(crate) fn map_weather_onto_layers(
     {
         haze.visibility_m = visibility;
     }
-    // Far places: their own mapping, of which only the coverage is used (seed 000 §4.5: the
+    // Far places: their own mapping, of which only the coverage is used (Thomann 2021 §4.5: the
     // distant weather shows on the horizon toward its place). Heights are above each place's
     // own ground.
     let far: Vec<(&super::PlaceWeather, MappedWeather)> = current

@@ -275,7 +275,7 @@ impl fmt::Display for SampleWarning {
 /// Samples [`Forecast`]s at instants, remembering where it last looked (so successive frames cost
 /// O(1)) and which warnings it already gave.
 ///
-/// - Linear in time between the two surrounding steps (seed 000 §6.5, Listing 9: "the weather
+/// - Linear in time between the two surrounding steps (Thomann 2021 §6.5, Listing 9: "the weather
 ///   data is interpolated from hour to hour").
 /// - Wind direction is interpolated as a vector, so 350° → 10° passes through 0°, not 180°. The
 ///   vectors are weighted by wind speed, so a calm step does not drag the direction; the speed

@@ -52,7 +52,7 @@ impl AssetLoader for ForecastLoader {
     }
 }
 
-/// A forecast for a place other than the scene origin (seed 000 §4.4–4.5: Solothurn or
+/// A forecast for a place other than the scene origin (Thomann 2021 §4.4–4.5: Solothurn or
 /// Fribourg on the horizon while Bern fills the foreground).
 #[derive(Debug, Clone, Reflect)]
 pub struct FarForecast {

@@ -6,7 +6,7 @@
     FAR_AWAY, NO_HIT, intersect_altitude_sphere, ground_distance,
 }
 
-// The cloud ray-march: shell geometry on a curved planet, seed 002's density model, the light
+// The cloud ray-march: shell geometry on a curved planet, Pérez Martín 2022's density model, the light
 // march toward the sun and Hillaire 2016's energy-conserving integration. A shader library: the
 // entry shader imports it, declares @binding(0) `view: View` and @binding(1) the depth prepass,
 // builds one ray per pixel and calls `march_clouds`.
@@ -18,7 +18,7 @@
 // - Hillaire 2016, "Physically Based Sky, Atmosphere and Cloud Rendering in Frostbite";
 // - Wrenninge 2013, "Oz: the great and volumetric" (multiple-scattering octaves);
 // - Schneider 2015, "The real-time volumetric cloudscapes of Horizon Zero Dawn";
-// - seed 002 (Aetherius): "Density Model", "Cloud Lighting", "Multiple Scattering
+// - Pérez Martín 2022 (Aetherius): "Density Model", "Cloud Lighting", "Multiple Scattering
 //   Approximation", "Atmosphere", "Optimization".
 //
 // Units: metres, 1/m for extinction, radians. All positions are relative to the camera and
@@ -52,7 +52,7 @@ struct CloudUniforms {
     layer_count: u32,
     // The march stops once the view transmittance is at or below this.
     transmittance_cutoff: f32,
-    // Wrenninge 2013 octave factors a, b, c (seed 002: 0.3, 0.75, 0.5).
+    // Wrenninge 2013 octave factors a, b, c (Pérez Martín 2022: 0.3, 0.75, 0.5).
     ms_attenuation: f32,
     ms_contribution: f32,
     ms_eccentricity: f32,
@@ -346,7 +346,7 @@ fn step_warp(u: f32, beta: f32) -> f32 {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Density (seed 002, "Density Model"; Schneider 2015)
+// Density (Pérez Martín 2022, "Density Model"; Schneider 2015)
 // ---------------------------------------------------------------------------------------------
 
 // Piecewise-linear profile at a height fraction, end values held, 1 with no points.
@@ -417,7 +417,7 @@ fn remap(value: f32, old_min: f32, old_max: f32, new_min: f32, new_max: f32) -> 
     return new_min + (value - old_min) / (old_max - old_min) * (new_max - new_min);
 }
 
-// Perlin-Worley carved by the low-frequency Worley fBm (seed 002, Figure 36). Rust: `base_shape`.
+// Perlin-Worley carved by the low-frequency Worley fBm (Pérez Martín 2022, Figure 36). Rust: `base_shape`.
 fn base_shape(sample: vec4<f32>) -> f32 {
     let fbm = dot(sample.yzw, FBM_WEIGHTS);
     return saturate(remap(sample.x, fbm - 1.0, 1.0, 0.0, 1.0));
@@ -435,7 +435,7 @@ fn texture_lod(footprint_m: f32, texel_m: f32) -> f32 {
 }
 
 // Rust: `NoiseTexture3d::sample` (base), with an explicit level: the march picks mips by
-// distance (seed 002, "LODs Over Distance").
+// distance (Pérez Martín 2022, "LODs Over Distance").
 fn sample_base_noise(uvw: vec3<f32>, lod: f32) -> vec4<f32> {
     return textureSampleLevel(base_noise, noise_sampler, uvw, lod);
 }
@@ -585,7 +585,7 @@ fn scattering_albedo(layer: CloudLayerGpu) -> f32 {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Light (Hillaire 2016; Wrenninge 2013; seed 002 "Cloud Lighting")
+// Light (Hillaire 2016; Wrenninge 2013; Pérez Martín 2022 "Cloud Lighting")
 // ---------------------------------------------------------------------------------------------
 
 // Rust: `henyey_greenstein`.
@@ -802,7 +802,7 @@ fn ray_medium(ray: ptr<function, MarchRay>, t: f32) -> Medium {
         let sigma = layer_density(layer, horizontal, altitude, footprint, true);
         if sigma > 0.0 {
             let sigma_s = sigma * scattering_albedo(layer);
-            // Ambient sky light grows from the base to the top (seed 002, "Day / Night Cycle").
+            // Ambient sky light grows from the base to the top (Pérez Martín 2022, "Day / Night Cycle").
             let height = saturate((altitude - layer.base_m) / (layer.top_m - layer.base_m));
             medium.ambient += sigma_s * mix(clouds.ambient_bottom.xyz, clouds.ambient_top.xyz, height);
             medium.extinction += sigma;
@@ -944,7 +944,7 @@ fn interval_steps(span_m: f32) -> u32 {
 }
 
 // primary_steps steps over [start, end], growing with distance, with two-level stepping
-// (Schneider 2015; seed 002 "Optimization"); false once the cut-off is reached.
+// (Schneider 2015; Pérez Martín 2022 "Optimization"); false once the cut-off is reached.
 // Rust: `Ray::march_interval`.
 fn march_interval(ray: ptr<function, MarchRay>, start: f32, end: f32) -> bool {
     let steps = interval_steps(end - start);

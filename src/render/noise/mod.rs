@@ -1,6 +1,6 @@
 //! Tileable 3D cloud noise, generated on the GPU by a compute pass.
 //!
-//! Three textures feed the cloud ray-march (seed 002, "Cloud textures"):
+//! Three textures feed the cloud ray-march (Pérez Martín 2022, "Cloud textures"):
 //!
 //! - **base**, 3D `Rgba16Float`, 128³ by default: Perlin-Worley and three Worley fBm octaves
 //!   sets that shape the clouds;

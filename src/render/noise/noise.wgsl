@@ -136,7 +136,7 @@ fn noise_seed(seed: u32, slot: u32) -> u32 {
 }
 
 // True modulo of a lattice cell, cell - period * floor(cell / period), in [0, period) for
-// negative cells too: WGSL's `%` keeps the dividend's sign (seed 000 §5.3). Rust: `wrap_cell`.
+// negative cells too: WGSL's `%` keeps the dividend's sign (Thomann 2021 §5.3). Rust: `wrap_cell`.
 fn wrap_cell(cell: i32, period: u32) -> u32 {
     let p = i32(period);
     let remainder = cell % p;
@@ -202,7 +202,7 @@ fn perlin_noise_3d(p: vec3<f32>, period: u32, seed: u32) -> f32 {
     let cell_floor = floor(p);
     let f = p - cell_floor;
     let cell = vec3<i32>(cell_floor);
-    // Corners wrapped on integers so the lattice repeats (seed 000 §5.3).
+    // Corners wrapped on integers so the lattice repeats (Thomann 2021 §5.3).
     let lo = vec3<u32>(wrap_cell(cell.x, period), wrap_cell(cell.y, period), wrap_cell(cell.z, period));
     let hi = vec3<u32>(
         wrap_cell(cell.x + 1, period),
@@ -234,7 +234,7 @@ fn perlin_noise_3d(p: vec3<f32>, period: u32, seed: u32) -> f32 {
 }
 
 // Periodic inverted Worley noise 1 - min(F1, 1) (Worley 1996) at p in cells, period in cells;
-// in [0, 1], bright at feature points (seed 002, "billowy" cells). The 27-cell search is exact
+// in [0, 1], bright at feature points (Pérez Martín 2022, "billowy" cells). The 27-cell search is exact
 // for the clamped F1. Rust: `worley_noise_3d`.
 fn worley_noise_3d(p: vec3<f32>, period: u32, seed: u32) -> f32 {
     let cell_floor = floor(p);
@@ -267,7 +267,7 @@ fn worley_noise_3d(p: vec3<f32>, period: u32, seed: u32) -> f32 {
 const OCTAVE_PERLIN: u32 = 0u;
 const OCTAVE_WORLEY: u32 = 1u;
 
-// fBm (seed 002, Figure 28) at p in texture units: octave k has frequency * 2^k cells per
+// fBm (Pérez Martín 2022, Figure 28) at p in texture units: octave k has frequency * 2^k cells per
 // period and amplitude persistence^k; normalised by the sum of amplitudes. Rust: `fbm_3d`.
 fn fbm_3d(p: vec3<f32>, fbm: FbmRecipe, seed: u32, octave: u32) -> f32 {
     let octaves = clamp(fbm.octaves, 1u, MAX_OCTAVES);
@@ -303,7 +303,7 @@ fn worley_fbm_3d(p: vec3<f32>, fbm: FbmRecipe, seed: u32) -> f32 {
     return fbm_3d(p, fbm, seed, OCTAVE_WORLEY);
 }
 
-// Linear remap (seed 002, Figure 30). Rust: `remap`.
+// Linear remap (Pérez Martín 2022, Figure 30). Rust: `remap`.
 fn remap(value: f32, old_min: f32, old_max: f32, new_min: f32, new_max: f32) -> f32 {
     return new_min + (value - old_min) / (old_max - old_min) * (new_max - new_min);
 }
@@ -313,7 +313,7 @@ fn signed_to_unit(value: f32, contrast: f32) -> f32 {
     return clamp(0.5 + 0.5 * contrast * value, 0.0, 1.0);
 }
 
-// Perlin fBm dilated by Worley fBm: remap(perlin, 0, 1, worley, 1) (seed 002, "Cloud
+// Perlin fBm dilated by Worley fBm: remap(perlin, 0, 1, worley, 1) (Pérez Martín 2022, "Cloud
 // textures"; Schneider 2015). Rust: `perlin_worley`.
 fn perlin_worley(p: vec3<f32>, perlin: FbmRecipe, worley: FbmRecipe, perlin_seed: u32, worley_seed: u32) -> f32 {
     let perlin_unit = signed_to_unit(perlin_fbm_3d(p, perlin, perlin_seed), PERLIN_WORLEY_CONTRAST);
