@@ -8,9 +8,9 @@ use bevy::render::render_resource::ShaderType;
 use super::{
     composite::{GpuTemporalUniforms, GpuViewGround},
     haze::GpuHazeUniforms,
-    march::{GpuCloudLayer, GpuCloudUniforms},
     noise::GpuNoiseParams,
     shadow::GpuShadowUniforms,
+    view::{GpuCloudLayer, GpuCloudUniforms},
     weather_map::GpuWeatherMapUniforms,
 };
 use crate::reference::{
@@ -276,14 +276,14 @@ fn every_uniform_layout_matches_its_rust_struct() {
         (
             include_str!("march/clouds.wgsl"),
             "CloudUniforms",
-            include_str!("march/mod.rs"),
+            include_str!("view.rs"),
             "GpuCloudUniforms",
             GpuCloudUniforms::min_size().get(),
         ),
         (
             include_str!("march/clouds.wgsl"),
             "CloudLayerGpu",
-            include_str!("march/mod.rs"),
+            include_str!("view.rs"),
             "GpuCloudLayer",
             GpuCloudLayer::min_size().get(),
         ),

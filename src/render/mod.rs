@@ -1,4 +1,6 @@
-//! GPU passes, in the order a frame runs them, and the camera settings that opt into them.
+//! GPU passes, in the order a frame runs them, and the camera settings that opt into them. Each
+//! pass is a leaf module; what they share, the extracted view of a camera with its GPU structs
+//! and buffers, is in `view`.
 //!
 //! - [`noise`]: a compute pass that fills the tileable cloud-noise textures once, and again only
 //!   when [`noise::CloudNoiseSettings`] change.
@@ -23,6 +25,8 @@ pub mod haze;
 pub mod march;
 pub mod noise;
 pub mod shadow;
+#[doc(hidden)]
+pub mod view;
 pub mod weather_map;
 
 use bevy::{camera::Hdr, core_pipeline::prepass::DepthPrepass, prelude::*};

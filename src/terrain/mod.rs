@@ -27,7 +27,7 @@
 //! # Building the mesh
 //!
 //! [`TerrainMesh::build`] takes a [`Dem`], the [`TangentPlane`] of the scene origin (the same
-//! projection as `weather::GeoOrigin::to_scene`: +X east, +Y up, −Z north, metres) and
+//! projection as `scene::GeoOrigin::to_scene`: +X east, +Y up, −Z north, metres) and
 //! [`TerrainSettings`], and runs these steps on a regular grid over the DEM's cell centres:
 //!
 //! 1. **Upsample** by [`TerrainSettings::upsample`] with separable Catmull-Rom splines (Catmull

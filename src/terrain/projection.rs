@@ -8,7 +8,7 @@ const WGS84_E2: f64 = 6.694_379_990_14e-3;
 /// The local tangent plane at a geographic origin: the crate's scene frame, +X east, +Y up,
 /// −Z north, in metres.
 ///
-/// [`TangentPlane::to_scene`] is the same formula as `weather::GeoOrigin::to_scene` (WGS 84 radii
+/// [`TangentPlane::to_scene`] is the same formula as `scene::GeoOrigin::to_scene` (WGS 84 radii
 /// of curvature at the origin: meridional `M` for north, prime vertical `N cos φ` for east), in
 /// f64 and with plain arrays so that this module needs no Bevy types. Build one from a
 /// `GeoOrigin` with its three fields. Because the mapping is linear in longitude and in latitude

@@ -28,7 +28,7 @@
 //! # Example
 //!
 //! ```no_run
-//! # use bevy_cloudscape::weather::{Forecast, Sampler, UtcInstant};
+//! # use bevy_cloudscape::{scene::UtcInstant, weather::{Forecast, Sampler}};
 //! let forecast = Forecast::from_path("assets/weather/bern.json", None)?;
 //! let mut sampler = Sampler::new();
 //! let noon: UtcInstant = "2021-05-03T12:00:00Z".parse()?;

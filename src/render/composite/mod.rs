@@ -74,8 +74,9 @@ use bevy::{
     shader::{ShaderDefVal, load_shader_library},
 };
 
-use super::march::ExtractedCloudView;
-use crate::reference::composite::{hit_blend, sample_offset, upsampling_factor};
+use super::view::ExtractedCloudView;
+pub use super::view::{TemporalUpsampling, low_res_size};
+use crate::reference::composite::hit_blend;
 
 /// Loads `composite.wgsl` (the shader library of the upsample weights) and `upsample.wgsl`.
 pub(crate) fn load_composite_shaders(app: &mut App) {
@@ -263,47 +264,6 @@ pub(crate) struct GpuTemporalUniforms {
     pub upsampling_factor: u32,
 }
 
-#[doc(hidden)]
-/// The temporal upsampling of a view that accumulates frames
-/// ([`VolumetricClouds::temporal_blend`](super::VolumetricClouds::temporal_blend)) and marches
-/// at a reduced resolution: each frame the march's rays go through the centre of another of the
-/// `k × k` full-resolution pixels each texel stands for, and the accumulation blends each pixel
-/// in on the frame its ray came through ([`crate::reference::composite`], "Temporal
-/// upsampling"). A still view then converges to the full resolution in `k²` frames' worth of
-/// samples per pixel.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct TemporalUpsampling {
-    /// `k`, the [`upsampling_factor`]; 1 (no offset) without the accumulation or at full
-    /// resolution.
-    pub factor: u32,
-    /// Where this frame's rays pass through their texels, in texels from the centre
-    /// ([`sample_offset`]).
-    pub offset_texels: Vec2,
-    /// The same in uv of the march's target (`offset_texels / size`).
-    pub offset_uv: Vec2,
-}
-
-impl TemporalUpsampling {
-    /// The upsampling of frame `frame` of a view whose target is `size` pixels, marched at
-    /// `scale` into [`low_res_size`] texels (the sizes [`CloudLowResTargets`] get), accumulating
-    /// when `accumulates`.
-    pub fn new(accumulates: bool, size: UVec2, scale: f32, frame: u32) -> Self {
-        let low = low_res_size(size, scale);
-        let factor = if accumulates {
-            upsampling_factor(size.to_array(), low.to_array())
-        } else {
-            1
-        };
-        let [x, y] = sample_offset(frame, factor);
-        let offset_texels = Vec2::new(x as f32, y as f32);
-        Self {
-            factor,
-            offset_texels,
-            offset_uv: offset_texels / low.as_vec2(),
-        }
-    }
-}
-
 /// Where the ground sphere is for a view, laid out as `ViewGround` in `composite.wgsl` (32
 /// bytes): the upsample and the temporal accumulation end each pixel's ray at the scene or the
 /// ground sphere, whichever is nearer ([`crate::reference::composite::ray_end_m`]), as the
@@ -460,13 +420,6 @@ pub(crate) struct CloudShaftTarget {
     /// Per texel: the factor below the lowest cloud base, the factor above it, the distance the
     /// ray was stopped at (metres), 0.
     pub factors: CachedTexture,
-}
-
-#[doc(hidden)]
-/// Size of a reduced-resolution image for a view of `size` pixels at `scale`: each side
-/// rounded up, at least 1.
-pub fn low_res_size(size: UVec2, scale: f32) -> UVec2 {
-    (size.as_vec2() * scale).ceil().as_uvec2().max(UVec2::ONE)
 }
 
 /// Creates or drops each view's composite targets (render world, every frame): the march's

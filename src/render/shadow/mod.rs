@@ -75,8 +75,8 @@ use bevy::{
 use super::{
     VolumetricClouds,
     haze::CloudShadowFrame,
-    march::{CloudSun, GpuCloudLayer, GpuCloudUniforms, march_inputs},
     noise::CloudNoiseTextures,
+    view::{CloudSun, GpuCloudLayer, GpuCloudUniforms, march_inputs},
 };
 use crate::{
     CloudscapeSystems,

@@ -47,8 +47,8 @@ use bevy::{
 };
 
 use super::{
-    march::{CloudViewBuffers, GpuCloudLayer},
     noise::CloudNoiseTextures,
+    view::{CloudViewBuffers, GpuCloudLayer},
 };
 use crate::reference::{
     render::MarchLayer,
