@@ -8,6 +8,8 @@
 //!   nothing as the sun's disc sets.
 
 pub mod light;
+#[cfg(test)]
+mod pvlib;
 pub mod solar;
 mod sun;
 
