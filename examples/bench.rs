@@ -62,79 +62,54 @@ use common::scenes::{
     CloudRig, Scene, luminance, save_strip, showcase_scenes, small_recipe, sun_direction,
 };
 
+/// Speed against error of the presets (see the module docs).
+#[derive(clap::Parser)]
 struct Args {
-    size: UVec2,
+    /// Image width, pixels.
+    #[arg(long, default_value_t = 160, value_parser = clap::value_parser!(u32).range(1..))]
+    width: u32,
+    /// Image height, pixels.
+    #[arg(long, default_value_t = 90, value_parser = clap::value_parser!(u32).range(1..))]
+    height: u32,
+    /// Frames timed per measurement (the median is kept).
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
     frames: u32,
+    /// Folder the CSV files, the plot and the images go to.
+    #[arg(long, default_value = "bench")]
     out: PathBuf,
     /// Turn the presets' ray jitter off, to separate its noise from the bias of fewer steps.
+    #[arg(long)]
     no_jitter: bool,
     /// Measure only the optional effects (`effects.csv`), not the presets.
+    #[arg(long)]
     effects_only: bool,
     /// Print where the error comes from ([`error_budget`]) instead of timing anything.
+    #[arg(long)]
     error_budget: bool,
     /// Measure only the bench scene of this name (and no effects).
+    #[arg(long, value_parser = scene_name)]
     scene: Option<String>,
-    /// Primary steps of the reference (default [`REFERENCE_STEPS`]).
+    /// Primary steps of the reference.
+    #[arg(long, default_value_t = REFERENCE_STEPS,
+          value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_PRIMARY_STEPS)))]
     reference_steps: u32,
 }
 
-fn parse_args() -> Result<Args, String> {
-    let usage = "usage: bench [--width W] [--height H] [--frames N] [--out DIR] [--no-jitter] \
-                 [--scene NAME] [--reference-steps N] [--effects-only] [--error-budget]";
-    let mut args = Args {
-        size: UVec2::new(160, 90),
-        frames: 5,
-        out: PathBuf::from("bench"),
-        no_jitter: false,
-        effects_only: false,
-        error_budget: false,
-        scene: None,
-        reference_steps: REFERENCE_STEPS,
-    };
-    let mut it = std::env::args().skip(1);
-    while let Some(arg) = it.next() {
-        let mut number = |name: &str| -> Result<u32, String> {
-            let text = it.next().ok_or(format!("{name} needs a value ({usage})"))?;
-            text.parse()
-                .ok()
-                .filter(|n| *n > 0)
-                .ok_or(format!("{name}: {text:?} is not a positive whole number"))
-        };
-        match arg.as_str() {
-            "--width" => args.size.x = number("--width")?,
-            "--height" => args.size.y = number("--height")?,
-            "--frames" => args.frames = number("--frames")?,
-            "--reference-steps" => {
-                args.reference_steps = number("--reference-steps")?;
-                if args.reference_steps > MAX_PRIMARY_STEPS {
-                    return Err(format!(
-                        "--reference-steps: the march takes at most {MAX_PRIMARY_STEPS} steps"
-                    ));
-                }
-            }
-            "--no-jitter" => args.no_jitter = true,
-            "--effects-only" => args.effects_only = true,
-            "--error-budget" => args.error_budget = true,
-            "--scene" => {
-                let name = it
-                    .next()
-                    .ok_or(format!("--scene needs a scene name ({usage})"))?;
-                let names: Vec<_> = bench_scenes().iter().map(|s| s.name).collect();
-                if !names.contains(&name.as_str()) {
-                    return Err(format!("--scene: {name:?} is not one of {names:?}"));
-                }
-                args.scene = Some(name);
-            }
-            "--out" => {
-                args.out = it
-                    .next()
-                    .ok_or(format!("--out needs a folder ({usage})"))?
-                    .into();
-            }
-            other => return Err(format!("unknown argument {other:?} ({usage})")),
-        }
+impl Args {
+    /// The image size, pixels.
+    fn size(&self) -> UVec2 {
+        UVec2::new(self.width, self.height)
     }
-    Ok(args)
+}
+
+/// A `--scene` value: the name of one of [`bench_scenes`].
+fn scene_name(name: &str) -> Result<String, String> {
+    let names: Vec<_> = bench_scenes().iter().map(|s| s.name).collect();
+    if names.contains(&name) {
+        Ok(name.to_owned())
+    } else {
+        Err(format!("{name:?} is not one of {names:?}"))
+    }
 }
 
 /// Primary steps per interval of the converged reference (`--reference-steps`).
@@ -596,7 +571,7 @@ fn run(args: &Args) -> Result<(), String> {
     }
     std::fs::create_dir_all(args.out.join("images"))
         .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
-    let mut rig = CloudRig::new(args.size, Msaa::Off, default());
+    let mut rig = CloudRig::new(args.size(), Msaa::Off, default());
     if args.effects_only {
         let effects = measure_effects(&mut rig, args.frames);
         let path = args.out.join("effects.csv");
@@ -655,7 +630,7 @@ fn run(args: &Args) -> Result<(), String> {
                     .out
                     .join("images")
                     .join(format!("{}_{preset}.png", scene.name)),
-                args.size,
+                args.size(),
                 &[&measured.composite, &reference.composite, &difference],
             );
             rows.push(Row {
@@ -681,8 +656,8 @@ fn run(args: &Args) -> Result<(), String> {
             "{},{},{},{},{:.3},{:.3},{:.5},{:.5},{}\n",
             r.scene,
             r.preset,
-            args.size.x,
-            args.size.y,
+            args.size().x,
+            args.size().y,
             r.ms,
             r.ref_ms,
             r.rel_rmse,
@@ -704,7 +679,7 @@ fn run(args: &Args) -> Result<(), String> {
 }
 
 fn main() -> ExitCode {
-    match parse_args().and_then(|args| run(&args)) {
+    match run(&<Args as clap::Parser>::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(message) => {
             eprintln!("bench: {message}");

@@ -121,18 +121,8 @@ const SETTLE_FRAMES: u32 = 16;
 /// need a few, and the clouds' temporal accumulation about twenty to settle.
 const DEFAULT_WARMUP: u32 = 24;
 
-const USAGE: &str = "usage: bern [--camera gurten|bantiger] [--time RFC3339] [--headless] \
-                     [--out PATH] [--width W] [--height H] [--frames N --step 10m] [--warmup N] \
-                     [--photos DIR] [--photo-opacity 0..1] [--photo-wiper 0..1] [--dem PATH] \
-                     [--ev100 EV] [--azimuth DEG] [--no-cloud-shadows] [--no-clouds] \
-                     [--log-frame-times]";
-
 fn main() -> AppExit {
-    if std::env::args().any(|arg| arg == "--help" || arg == "-h") {
-        println!("{USAGE}\n(the flags are explained at the top of examples/bern.rs)");
-        return AppExit::Success;
-    }
-    let (args, options) = match parse_options(std::env::args().skip(1)) {
+    let (args, options) = match <Cli as clap::Parser>::parse().options() {
         Ok(parsed) => parsed,
         Err(message) => {
             eprintln!("bern: {message}");
@@ -259,102 +249,122 @@ struct BernOptions {
     azimuth_deg: Option<f32>,
 }
 
-fn parse_options(
-    arguments: impl IntoIterator<Item = String>,
-) -> Result<(ExampleArgs, BernOptions), String> {
-    let mut options = BernOptions {
-        viewpoint: Viewpoint::Gurten,
-        time: DEFAULT_TIME.parse().map_err(|e| format!("{e}"))?,
-        shots: None,
-        step_s: 600,
-        photos: None,
-        photo_opacity: 0.5,
-        photo_wiper: 1.0,
-        dem: FileAssetReader::get_base_path()
-            .join("assets")
-            .join(DEM_ASSET),
-        ev100: DEFAULT_EV100,
-        cloud_shadows: true,
-        log_frame_times: false,
-        clouds: true,
-        azimuth_deg: None,
-    };
-    let mut warmup = None;
-    let mut out_given = false;
-    // `--frames` counts time-lapse images here, so the warm-up count moves to `--warmup`.
-    let mut args = ExampleArgs::parse("bern", arguments, Some(USAGE), |arg, rest| {
-        let mut value = || rest.next().ok_or_else(|| format!("{arg} needs a value"));
-        match arg {
-            "--camera" => options.viewpoint = value()?.parse()?,
-            "--time" => {
-                let text = value()?;
-                options.time = text.parse().map_err(|e| format!("--time {text:?}: {e}"))?;
-            }
-            "--frames" => options.shots = Some(parse_count(&value()?, "--frames")?),
-            "--step" => options.step_s = parse_duration_s(&value()?)?,
-            "--warmup" => warmup = Some(parse_count(&value()?, "--warmup")?),
-            "--photos" => options.photos = Some(PathBuf::from(value()?)),
-            "--photo-opacity" => options.photo_opacity = parse_fraction(&value()?, arg)?,
-            "--photo-wiper" => options.photo_wiper = parse_fraction(&value()?, arg)?,
-            "--dem" => options.dem = PathBuf::from(value()?),
-            "--no-cloud-shadows" => options.cloud_shadows = false,
-            "--log-frame-times" => options.log_frame_times = true,
-            "--no-clouds" => options.clouds = false,
-            "--azimuth" => {
-                let text = value()?;
-                options.azimuth_deg = Some(
-                    text.parse::<f32>()
-                        .ok()
-                        .filter(|a| a.is_finite())
-                        .ok_or_else(|| format!("--azimuth: {text:?} is not a number of degrees"))?,
-                );
-            }
-            "--ev100" => {
-                let text = value()?;
-                options.ev100 = text
-                    .parse::<f32>()
-                    .ok()
-                    .filter(|x| x.is_finite())
-                    .ok_or_else(|| format!("--ev100: {text:?} is not a number"))?;
-            }
-            "--out" => {
-                // Noted, then left to the common parser.
-                out_given = true;
-                return Ok(false);
-            }
-            _ => return Ok(false),
-        }
-        Ok(true)
-    })?;
-    args.frames = warmup.unwrap_or(DEFAULT_WARMUP);
-    if options.shots.is_some() {
-        if !args.headless {
-            return Err("--frames makes a headless time-lapse: add --headless".into());
-        }
-        if !out_given {
-            args.out = PathBuf::from("bern_frames");
-        }
-    }
-    Ok((args, options))
+/// The Bern demo; the flags are explained at the top of `examples/bern.rs`.
+#[derive(clap::Parser)]
+struct Cli {
+    /// The viewpoint: gurten or bantiger.
+    #[arg(long, default_value = "gurten")]
+    camera: Viewpoint,
+    /// The scene time at start-up, UTC (RFC 3339).
+    #[arg(long, default_value = DEFAULT_TIME)]
+    time: UtcInstant,
+    /// Render without a window and write PNG images.
+    #[arg(long)]
+    headless: bool,
+    /// Where the headless image goes [default: `bern.png`; a time-lapse: the folder `bern_frames`].
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Headless image width, pixels.
+    #[arg(long, default_value_t = 1280, value_parser = clap::value_parser!(u32).range(1..))]
+    width: u32,
+    /// Headless image height, pixels.
+    #[arg(long, default_value_t = 720, value_parser = clap::value_parser!(u32).range(1..))]
+    height: u32,
+    /// A headless time-lapse of this many images, `--step` apart.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    frames: Option<u32>,
+    /// Scene time between time-lapse images: 30s, 10m, 2h or 1d (negative runs backwards).
+    #[arg(long, default_value = "10m", value_parser = parse_duration_s, allow_hyphen_values = true)]
+    step: i64,
+    /// Frames before the first headless image.
+    #[arg(long, default_value_t = DEFAULT_WARMUP, value_parser = clap::value_parser!(u32).range(1..))]
+    warmup: u32,
+    /// A folder of photos to compare with (`DIR/gurten/2021-05-03T14-00.jpg`, …).
+    #[arg(long)]
+    photos: Option<PathBuf>,
+    /// Opacity of the photo over the view, 0 to 1.
+    #[arg(long, default_value_t = 0.5, value_parser = parse_fraction)]
+    photo_opacity: f32,
+    /// Where the photo's wiper stands, 0 (left) to 1 (right).
+    #[arg(long, default_value_t = 1.0, value_parser = parse_fraction)]
+    photo_wiper: f32,
+    /// An elevation model (ESRI ASCII grid or `GeoTIFF` in degrees) [default: the bundled one].
+    #[arg(long)]
+    dem: Option<PathBuf>,
+    /// Camera exposure, EV100.
+    #[arg(long, default_value_t = DEFAULT_EV100, value_parser = parse_finite, allow_hyphen_values = true)]
+    ev100: f32,
+    /// The view direction, degrees clockwise from north [default: the viewpoint's].
+    #[arg(long, value_parser = parse_finite, allow_hyphen_values = true)]
+    azimuth: Option<f32>,
+    /// No cloud shadows on the terrain.
+    #[arg(long)]
+    no_cloud_shadows: bool,
+    /// No clouds (the camera has no `VolumetricClouds`).
+    #[arg(long)]
+    no_clouds: bool,
+    /// Log frame and render-pass times every second.
+    #[arg(long)]
+    log_frame_times: bool,
 }
 
-fn parse_fraction(text: &str, name: &str) -> Result<f32, String> {
+impl Cli {
+    /// The capture settings and the demo's options the command line asks for.
+    fn options(self) -> Result<(ExampleArgs, BernOptions), String> {
+        if self.frames.is_some() && !self.headless {
+            return Err("--frames makes a headless time-lapse: add --headless".into());
+        }
+        let default_out = if self.frames.is_some() {
+            "bern_frames"
+        } else {
+            "bern.png"
+        };
+        let args = ExampleArgs {
+            headless: self.headless,
+            out: self.out.unwrap_or_else(|| PathBuf::from(default_out)),
+            frames: self.warmup,
+            size: UVec2::new(self.width, self.height),
+        };
+        let options = BernOptions {
+            viewpoint: self.camera,
+            time: self.time,
+            shots: self.frames,
+            step_s: self.step,
+            photos: self.photos,
+            photo_opacity: self.photo_opacity,
+            photo_wiper: self.photo_wiper,
+            dem: self.dem.unwrap_or_else(|| {
+                FileAssetReader::get_base_path()
+                    .join("assets")
+                    .join(DEM_ASSET)
+            }),
+            ev100: self.ev100,
+            cloud_shadows: !self.no_cloud_shadows,
+            log_frame_times: self.log_frame_times,
+            clouds: !self.no_clouds,
+            azimuth_deg: self.azimuth,
+        };
+        Ok((args, options))
+    }
+}
+
+fn parse_finite(text: &str) -> Result<f32, String> {
+    text.parse::<f32>()
+        .ok()
+        .filter(|x| x.is_finite())
+        .ok_or_else(|| format!("{text:?} is not a number"))
+}
+
+fn parse_fraction(text: &str) -> Result<f32, String> {
     text.parse::<f32>()
         .ok()
         .filter(|x| (0.0..=1.0).contains(x))
-        .ok_or_else(|| format!("{name}: {text:?} is not a number from 0 to 1"))
-}
-
-fn parse_count(text: &str, name: &str) -> Result<u32, String> {
-    text.parse::<u32>()
-        .ok()
-        .filter(|n| *n > 0)
-        .ok_or_else(|| format!("{name}: {text:?} is not a whole number of at least 1"))
+        .ok_or_else(|| format!("{text:?} is not a number from 0 to 1"))
 }
 
 /// `30s`, `10m`, `2h`, `1d` (optionally negative, to run backwards) in seconds.
 fn parse_duration_s(text: &str) -> Result<i64, String> {
-    let error = || format!("--step: {text:?} is not a duration such as 30s, 10m, 1h or 1d");
+    let error = || format!("{text:?} is not a duration such as 30s, 10m, 1h or 1d");
     let unit = text.chars().last().ok_or_else(error)?;
     let scale = match unit {
         's' => 1,
@@ -434,7 +444,7 @@ impl std::str::FromStr for Viewpoint {
         Self::ALL
             .into_iter()
             .find(|v| v.key().eq_ignore_ascii_case(text))
-            .ok_or_else(|| format!("--camera: {text:?} is neither gurten nor bantiger"))
+            .ok_or_else(|| format!("{text:?} is neither gurten nor bantiger"))
     }
 }
 

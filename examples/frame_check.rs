@@ -118,15 +118,24 @@ fn same(a_path: &str, b_path: &str) -> Result<Result<String, String>, String> {
     })
 }
 
+/// Compares two headless frames (see the module docs).
+#[derive(clap::Parser)]
+struct Args {
+    /// Check that the two frames match instead (mean difference under 2/255).
+    #[arg(long)]
+    same: bool,
+    /// The frame with clouds (with `--same`: the first frame).
+    with_clouds: String,
+    /// The same view without clouds (with `--same`: the second frame).
+    without_clouds: String,
+}
+
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let result = match args.as_slice() {
-        [flag, a, b] if flag == "--same" => same(a, b),
-        [with, without] => run(with, without),
-        _ => {
-            eprintln!("usage: frame_check WITH_CLOUDS.png WITHOUT_CLOUDS.png | --same A.png B.png");
-            return ExitCode::from(2);
-        }
+    let args = <Args as clap::Parser>::parse();
+    let result = if args.same {
+        same(&args.with_clouds, &args.without_clouds)
+    } else {
+        run(&args.with_clouds, &args.without_clouds)
     };
     match result {
         Ok(Ok(report)) => {

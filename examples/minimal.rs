@@ -9,16 +9,18 @@ mod common;
 
 use bevy::prelude::*;
 use bevy_cloudscape::prelude::*;
-use common::{ExampleArgs, HeadlessCapturePlugin};
+use clap::Parser;
+use common::{CommonArgs, HeadlessCapturePlugin};
+
+/// The smallest cloud scene.
+#[derive(Parser)]
+struct Cli {
+    #[command(flatten)]
+    common: CommonArgs,
+}
 
 fn main() -> AppExit {
-    let args = match ExampleArgs::from_env("minimal") {
-        Ok(args) => args,
-        Err(message) => {
-            eprintln!("{message}");
-            return AppExit::error();
-        }
-    };
+    let args = Cli::parse().common.for_example("minimal");
     let mut app = App::new();
     app.add_plugins((
         common::default_plugins(&args, "bevy_cloudscape: minimal"),

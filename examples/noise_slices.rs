@@ -20,37 +20,34 @@ use bevy_cloudscape::{
 };
 use common::headless::{Headless, rgba16float_texels};
 
+/// Writes PNG slices of the cloud-noise textures.
+#[derive(clap::Parser)]
 struct Args {
+    /// Folder the slices go to.
+    #[arg(long, default_value = "noise_slices")]
     out: PathBuf,
-    recipe: NoiseRecipe,
+    /// Seed of every noise.
+    #[arg(long, default_value_t = 0)]
+    seed: u32,
+    /// 32³/16³/64² textures instead of 128³/32³/256² (quicker on software Vulkan).
+    #[arg(long)]
+    small: bool,
 }
 
-fn parse_args() -> Result<Args, String> {
-    let mut args = Args {
-        out: PathBuf::from("noise_slices"),
-        recipe: NoiseRecipe::default(),
-    };
-    let mut it = std::env::args().skip(1);
-    while let Some(arg) = it.next() {
-        match arg.as_str() {
-            "--out" => args.out = it.next().ok_or("--out needs a folder")?.into(),
-            "--seed" => {
-                let text = it.next().ok_or("--seed needs a number")?;
-                args.recipe.seed = text.parse().map_err(|_| format!("--seed: {text:?}"))?;
-            }
-            "--small" => {
-                args.recipe.base_size = 32;
-                args.recipe.detail_size = 16;
-                args.recipe.weather_size = 64;
-            }
-            other => {
-                return Err(format!(
-                    "unknown argument {other:?}\nusage: noise_slices [--out DIR] [--seed N] [--small]"
-                ));
-            }
+impl Args {
+    /// The noise recipe the options ask for.
+    fn recipe(&self) -> NoiseRecipe {
+        let mut recipe = NoiseRecipe {
+            seed: self.seed,
+            ..NoiseRecipe::default()
+        };
+        if self.small {
+            recipe.base_size = 32;
+            recipe.detail_size = 16;
+            recipe.weather_size = 64;
         }
+        recipe
     }
-    Ok(args)
 }
 
 /// Writes one channel of a `size`×`size` slice (tightly packed RGBA8) as a grey PNG tiled 2×2.
@@ -76,10 +73,10 @@ fn half_floats_to_rgba8(bytes: &[u8]) -> Vec<u8> {
 fn run(args: &Args) -> Result<(), String> {
     std::fs::create_dir_all(&args.out)
         .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
-    let recipe = args.recipe.clone();
+    let recipe = args.recipe();
     let mut app = Headless::new(UVec2::splat(4), TextureFormat::Rgba8UnormSrgb, |app| {
         app.add_plugins(CloudNoisePlugin)
-            .insert_resource(CloudNoiseSettings(recipe));
+            .insert_resource(CloudNoiseSettings(recipe.clone()));
     });
     app.run_frames(3);
     let textures = app
@@ -91,8 +88,8 @@ fn run(args: &Args) -> Result<(), String> {
     let channels = ["r", "g", "b", "a"];
     let mut written = 0;
     for (name, texture, size) in [
-        ("base", &textures.base.texture, args.recipe.base_size),
-        ("detail", &textures.detail.texture, args.recipe.detail_size),
+        ("base", &textures.base.texture, recipe.base_size),
+        ("detail", &textures.detail.texture, recipe.detail_size),
     ] {
         let mut level_size = size;
         for level in 0..mip_level_count(size) {
@@ -110,7 +107,7 @@ fn run(args: &Args) -> Result<(), String> {
     let weather = app.read_texture(&textures.weather.texture, 0);
     for (channel, suffix) in channels.iter().enumerate() {
         let path = args.out.join(format!("weather_{suffix}.png"));
-        write_tiled(&path, &weather, args.recipe.weather_size, channel)?;
+        write_tiled(&path, &weather, recipe.weather_size, channel)?;
         written += 1;
     }
     println!("wrote {written} PNGs to {}", args.out.display());
@@ -118,7 +115,7 @@ fn run(args: &Args) -> Result<(), String> {
 }
 
 fn main() -> std::process::ExitCode {
-    match parse_args().and_then(|args| run(&args)) {
+    match run(&<Args as clap::Parser>::parse()) {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(message) => {
             eprintln!("noise_slices: {message}");

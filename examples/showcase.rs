@@ -21,46 +21,24 @@ use common::{
     scenes::{Scene, showcase_scenes},
 };
 
-/// What to render: the image size, the frames per scene, where to write and, if given, the one
-/// scene to render.
+/// Renders the showcase cloud scenes to PNG, with no window.
+#[derive(clap::Parser)]
 struct Args {
-    size: UVec2,
+    /// Image width, pixels.
+    #[arg(long, default_value_t = 1280, value_parser = clap::value_parser!(u32).range(1..))]
+    width: u32,
+    /// Image height, pixels.
+    #[arg(long, default_value_t = 720, value_parser = clap::value_parser!(u32).range(1..))]
+    height: u32,
+    /// Frames of each scene before its image is taken.
+    #[arg(long, default_value_t = 24, value_parser = clap::value_parser!(u32).range(1..))]
     frames: u32,
+    /// Folder the images go to.
+    #[arg(long, default_value = "showcase")]
     out: PathBuf,
+    /// Render only the scene of this name.
+    #[arg(long)]
     scene: Option<String>,
-}
-
-fn parse_args() -> Result<Args, String> {
-    let usage = "usage: showcase [--width W] [--height H] [--frames N] [--out DIR] [--scene NAME]";
-    let mut args = Args {
-        size: UVec2::new(1280, 720),
-        frames: 24,
-        out: PathBuf::from("showcase"),
-        scene: None,
-    };
-    let mut it = std::env::args().skip(1);
-    while let Some(arg) = it.next() {
-        let mut value = || it.next().ok_or(format!("{arg} needs a value ({usage})"));
-        match arg.as_str() {
-            "--width" | "--height" | "--frames" => {
-                let text = value()?;
-                let n: u32 = text
-                    .parse()
-                    .ok()
-                    .filter(|n| *n > 0)
-                    .ok_or(format!("{arg}: {text:?} is not a positive whole number"))?;
-                match arg.as_str() {
-                    "--width" => args.size.x = n,
-                    "--height" => args.size.y = n,
-                    _ => args.frames = n,
-                }
-            }
-            "--out" => args.out = value()?.into(),
-            "--scene" => args.scene = Some(value()?),
-            other => return Err(format!("unknown argument {other:?} ({usage})")),
-        }
-    }
-    Ok(args)
 }
 
 fn scenes() -> Vec<Scene> {
@@ -77,7 +55,7 @@ fn scenes() -> Vec<Scene> {
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    let (size, out) = (args.size, args.out.as_path());
+    let (size, out) = (UVec2::new(args.width, args.height), args.out.as_path());
     let mut scenes = scenes();
     if let Some(name) = &args.scene {
         let names: Vec<&str> = scenes.iter().map(|scene| scene.name).collect();
@@ -122,7 +100,7 @@ fn run(args: &Args) -> Result<(), String> {
 }
 
 fn main() -> ExitCode {
-    match parse_args().and_then(|args| run(&args)) {
+    match run(&<Args as clap::Parser>::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(message) => {
             eprintln!("showcase: {message}");

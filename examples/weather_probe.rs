@@ -33,47 +33,20 @@ use bevy_cloudscape::{
 };
 use serde_json::{Value, json};
 
+/// What the crate makes of a forecast at an instant, as JSON.
+#[derive(clap::Parser)]
+#[command(group = clap::ArgGroup::new("mode").required(true).args(["at", "bench"]))]
 struct Args {
+    /// The near forecast file (meteoblue or Open-Meteo JSON).
     near: String,
+    /// Forecasts of far places, blended in toward their place.
     far: Vec<String>,
-    at: UtcInstant,
+    /// The instant to sample, UTC (RFC 3339).
+    #[arg(long)]
+    at: Option<UtcInstant>,
+    /// Time the parse and the sampling of the near file instead.
+    #[arg(long)]
     bench: bool,
-}
-
-fn parse_args() -> Result<Args, String> {
-    let usage = "usage: weather_probe FILE [FAR_FILE...] --at RFC3339_INSTANT | FILE --bench";
-    let mut files = Vec::new();
-    let mut at = None;
-    let mut bench = false;
-    let mut it = std::env::args().skip(1);
-    while let Some(arg) = it.next() {
-        if arg == "--at" {
-            let text = it
-                .next()
-                .ok_or(format!("--at needs an instant ({usage})"))?;
-            at = Some(
-                text.parse::<UtcInstant>()
-                    .map_err(|e| format!("--at {text:?}: {e}"))?,
-            );
-        } else if arg == "--bench" {
-            bench = true;
-        } else if arg.starts_with("--") {
-            return Err(format!("unknown option {arg:?} ({usage})"));
-        } else {
-            files.push(arg);
-        }
-    }
-    let mut files = files.into_iter();
-    Ok(Args {
-        near: files.next().ok_or(usage)?,
-        far: files.collect(),
-        at: match (at, bench) {
-            (Some(at), _) => at,
-            (None, true) => UtcInstant::from_unix_seconds(0),
-            (None, false) => return Err(format!("--at is required ({usage})")),
-        },
-        bench,
-    })
 }
 
 /// `null` for a value the forecast does not have. An f32 is written with its shortest decimal
@@ -116,7 +89,7 @@ fn sample(forecast: &Forecast, at: UtcInstant, warnings: &mut Vec<String>) -> We
     state
 }
 
-fn run(args: &Args) -> Result<Value, String> {
+fn run(args: &Args, at: UtcInstant) -> Result<Value, String> {
     let load = |path: &str| Forecast::from_path(path, None).map_err(|e| e.to_string());
     let near = load(&args.near)?;
     let far = args
@@ -126,17 +99,13 @@ fn run(args: &Args) -> Result<Value, String> {
         .collect::<Result<Vec<_>, _>>()?;
 
     let mut warnings = Vec::new();
-    let state = sample(&near, args.at, &mut warnings);
-    let sun = solar_position(
-        &Observer::from(&near.place),
-        args.at,
-        &SolarOptions::default(),
-    );
+    let state = sample(&near, at, &mut warnings);
+    let sun = solar_position(&Observer::from(&near.place), at, &SolarOptions::default());
     let (layers, mapping_warnings) = layers_for_weather(&state, near.place.elevation_m as f32);
     warnings.extend(mapping_warnings.iter().map(ToString::to_string));
 
     let mut object = serde_json::Map::new();
-    object.insert("time".into(), json!(args.at.to_rfc3339()));
+    object.insert("time".into(), json!(at.to_rfc3339()));
     object.insert("place".into(), json!(near.place.name));
     object.extend(weather_json(&state));
     object.insert("sun_elevation_deg".into(), json!(sun.elevation_deg));
@@ -160,7 +129,7 @@ fn run(args: &Args) -> Result<Value, String> {
         "far".into(),
         far.iter()
             .map(|forecast| {
-                let state = sample(forecast, args.at, &mut warnings);
+                let state = sample(forecast, at, &mut warnings);
                 let mut entry = weather_json(&state);
                 entry.insert("place".into(), json!(forecast.place.name));
                 Value::Object(entry)
@@ -216,13 +185,12 @@ fn bench(path: &str) -> Result<Value, String> {
 }
 
 fn main() -> ExitCode {
-    match parse_args().and_then(|args| {
-        if args.bench {
-            bench(&args.near)
-        } else {
-            run(&args)
-        }
-    }) {
+    let args = <Args as clap::Parser>::parse();
+    let result = match args.at {
+        Some(at) => run(&args, at),
+        None => bench(&args.near),
+    };
+    match result {
         Ok(value) => {
             println!("{value}");
             ExitCode::SUCCESS

@@ -26,7 +26,7 @@ use bevy::{
     winit::WinitPlugin,
 };
 
-/// Command-line options every example understands.
+/// What a running example needs of its command line: the headless capture's settings.
 #[derive(Debug, Clone, Resource)]
 pub struct ExampleArgs {
     /// Render without a window and write one PNG.
@@ -39,66 +39,40 @@ pub struct ExampleArgs {
     pub size: UVec2,
 }
 
-impl ExampleArgs {
-    /// Parses `--headless`, `--out PATH`, `--frames N`, `--width W` and `--height H` from the
-    /// process arguments. Unknown arguments are an error, printed with the usage line.
-    pub fn from_env(example: &str) -> Result<Self, String> {
-        Self::parse(example, std::env::args().skip(1), None, |_, _| Ok(false))
-    }
-
-    /// Parses the options of [`ExampleArgs::from_env`] from `arguments`, offering each argument to
-    /// `extra` first so an example can add its own (or give one of these another meaning):
-    /// `extra` gets the argument and the arguments after it (to take its value from) and returns
-    /// `Ok(true)` when the argument was its own. `usage` replaces the common usage line in the
-    /// error for an unknown argument.
-    pub fn parse(
-        example: &str,
-        arguments: impl IntoIterator<Item = String>,
-        usage: Option<&str>,
-        mut extra: impl FnMut(&str, &mut dyn Iterator<Item = String>) -> Result<bool, String>,
-    ) -> Result<Self, String> {
-        let mut args = Self {
-            headless: false,
-            out: PathBuf::from(format!("{example}.png")),
-            frames: 8,
-            size: UVec2::new(1280, 720),
-        };
-        let mut it = arguments.into_iter();
-        while let Some(arg) = it.next() {
-            if extra(&arg, &mut it)? {
-                continue;
-            }
-            let mut value = |name: &str| it.next().ok_or_else(|| format!("{name} needs a value"));
-            match arg.as_str() {
-                "--headless" => args.headless = true,
-                "--out" => args.out = PathBuf::from(value("--out")?),
-                "--frames" => args.frames = parse(&value("--frames")?, "--frames")?,
-                "--width" => args.size.x = parse(&value("--width")?, "--width")?,
-                "--height" => args.size.y = parse(&value("--height")?, "--height")?,
-                other => {
-                    let usage = usage.map_or_else(
-                        || {
-                            format!(
-                                "usage: {example} [--headless] [--out PATH.png] [--frames N] \
-                                 [--width W] [--height H]"
-                            )
-                        },
-                        str::to_owned,
-                    );
-                    return Err(format!("unknown argument {other:?}\n{usage}"));
-                }
-            }
-        }
-        if args.size.x == 0 || args.size.y == 0 || args.frames == 0 {
-            return Err("--width, --height and --frames must be at least 1".into());
-        }
-        Ok(args)
-    }
+/// The command-line options every example understands; flatten it into an example's own
+/// `clap::Parser` with `#[command(flatten)]`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct CommonArgs {
+    /// Render without a window and write one PNG.
+    #[arg(long)]
+    pub headless: bool,
+    /// Where the headless frame goes [default: EXAMPLE.png].
+    #[arg(long, value_name = "PATH.png")]
+    pub out: Option<PathBuf>,
+    /// Frames to run before the headless capture (pipelines and atmosphere LUTs need a few).
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..))]
+    pub frames: u32,
+    /// Headless image width, pixels.
+    #[arg(long, default_value_t = 1280, value_parser = clap::value_parser!(u32).range(1..))]
+    pub width: u32,
+    /// Headless image height, pixels.
+    #[arg(long, default_value_t = 720, value_parser = clap::value_parser!(u32).range(1..))]
+    pub height: u32,
 }
 
-fn parse<T: std::str::FromStr>(text: &str, name: &str) -> Result<T, String> {
-    text.parse()
-        .map_err(|_| format!("{name}: {text:?} is not a valid number"))
+impl CommonArgs {
+    /// The options as the running `example` uses them.
+    pub fn for_example(&self, example: &str) -> ExampleArgs {
+        ExampleArgs {
+            headless: self.headless,
+            out: self
+                .out
+                .clone()
+                .unwrap_or_else(|| PathBuf::from(format!("{example}.png"))),
+            frames: self.frames,
+            size: UVec2::new(self.width, self.height),
+        }
+    }
 }
 
 /// `DefaultPlugins` with no window, no winit and synchronous pipeline compilation: the base of

@@ -1,0 +1,75 @@
+//! Clouds from a weather forecast: the bundled meteoblue forecast for Bern sets the cloud
+//! layers, the haze and the rain, and the sun stands where it stood over Bern at that instant.
+//!
+//! ```text
+//! cargo run --release --example forecast -- [--time 2021-05-03T14:00:00Z]
+//! cargo run --release --example forecast -- --headless --out forecast.png
+//! ```
+
+mod common;
+
+use bevy::{
+    light::{Atmosphere, atmosphere::ScatteringMedium, light_consts::lux},
+    prelude::*,
+};
+use bevy_cloudscape::prelude::*;
+use clap::Parser;
+use common::{CommonArgs, HeadlessCapturePlugin, HeadlessProgress};
+
+/// Clouds from the bundled Bern forecast.
+#[derive(Parser)]
+struct Cli {
+    /// The instant to show, UTC (RFC 3339); the bundled forecast covers 3–9 May 2021.
+    #[arg(long, default_value = "2021-05-03T14:00:00Z")]
+    time: UtcInstant,
+    #[command(flatten)]
+    common: CommonArgs,
+}
+
+fn main() -> AppExit {
+    let cli = Cli::parse();
+    let args = cli.common.for_example("forecast");
+    let mut app = App::new();
+    app.add_plugins((
+        common::default_plugins(&args, "bevy_cloudscape: forecast"),
+        CloudscapePlugin,
+    ))
+    // The place (Bern is the default `GeoOrigin`) and the instant the sky shows.
+    .insert_resource(GeoOrigin::default())
+    .insert_resource(SceneClock::at(cli.time))
+    .add_systems(Startup, setup);
+    if args.headless {
+        app.add_plugins(HeadlessCapturePlugin)
+            .add_systems(Update, wait_for_the_forecast);
+    }
+    app.insert_resource(args).run()
+}
+
+fn setup(
+    mut commands: Commands,
+    asset_server: Res<AssetServer>,
+    mut media: ResMut<Assets<ScatteringMedium>>,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut materials: ResMut<Assets<StandardMaterial>>,
+) {
+    // The forecast drives every weather-driven layer; `spawn_weather_layers` makes one per slot.
+    commands.insert_resource(WeatherSource::load(&asset_server, "weather/bern.json", []));
+    spawn_weather_layers(&mut commands);
+    commands.spawn(Atmosphere::earth(
+        media.add(ScatteringMedium::earth(256, 256)),
+    ));
+    // `Sun` aims the light from the solar position for the place and instant.
+    commands.spawn((
+        DirectionalLight {
+            illuminance: lux::RAW_SUNLIGHT,
+            ..default()
+        },
+        Sun::default(),
+    ));
+    commands.spawn((common::sky_scene_camera(), VolumetricClouds::MEDIUM));
+}
+
+/// The headless capture waits until the forecast has loaded and set the layers.
+fn wait_for_the_forecast(weather: Res<CurrentWeather>, mut progress: ResMut<HeadlessProgress>) {
+    progress.ready = weather.near.is_some();
+}
