@@ -58,6 +58,10 @@ fn setup(
     commands.spawn(Atmosphere::earth(
         media.add(ScatteringMedium::earth(256, 256)),
     ));
+    commands.spawn((
+        Mesh3d(meshes.add(Plane3d::default().mesh().size(200_000.0, 200_000.0))),
+        MeshMaterial3d(materials.add(Color::srgb(0.32, 0.42, 0.22))),
+    ));
     // `Sun` aims the light from the solar position for the place and instant.
     commands.spawn((
         DirectionalLight {

@@ -44,7 +44,9 @@
 //! On software Vulkan (lavapipe) the times are CPU times: compare the ratios, not the
 //! milliseconds.
 
+#[path = "../common/mod.rs"]
 mod common;
+mod report;
 
 use std::{
     path::PathBuf,
@@ -61,6 +63,7 @@ use bevy_cloudscape::{
 use common::scenes::{
     CloudRig, Scene, luminance, save_strip, showcase_scenes, small_recipe, sun_direction,
 };
+use report::{Row, performance_md, plot, to_csv};
 
 /// Speed against error of the presets (see the module docs).
 #[derive(clap::Parser)]
@@ -89,6 +92,14 @@ struct Args {
     /// Measure only the bench scene of this name (and no effects).
     #[arg(long, value_parser = scene_name)]
     scene: Option<String>,
+    /// Also write `DIR/performance.md` and its plot `DIR/images/bench.svg` from this run
+    /// (`--docs docs` for the crate's own).
+    #[arg(long, value_name = "DIR")]
+    docs: Option<PathBuf>,
+    /// Measure nothing: read `bench.csv` and `effects.csv` from this folder (a run's `--out`)
+    /// and write the `--docs` files from them.
+    #[arg(long, value_name = "DIR", requires = "docs")]
+    from_csv: Option<PathBuf>,
     /// Primary steps of the reference.
     #[arg(long, default_value_t = REFERENCE_STEPS,
           value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_PRIMARY_STEPS)))]
@@ -128,12 +139,12 @@ fn reference_settings(steps: u32) -> VolumetricClouds {
     }
 }
 
-fn presets() -> [(&'static str, VolumetricClouds, [u8; 3]); 4] {
+fn presets() -> [(&'static str, VolumetricClouds); 4] {
     [
-        ("LOW", VolumetricClouds::LOW, [230, 60, 50]),
-        ("MEDIUM", VolumetricClouds::MEDIUM, [230, 200, 40]),
-        ("HIGH", VolumetricClouds::HIGH, [60, 190, 80]),
-        ("ULTRA", VolumetricClouds::ULTRA, [70, 120, 230]),
+        ("LOW", VolumetricClouds::LOW),
+        ("MEDIUM", VolumetricClouds::MEDIUM),
+        ("HIGH", VolumetricClouds::HIGH),
+        ("ULTRA", VolumetricClouds::ULTRA),
     ]
 }
 
@@ -373,60 +384,6 @@ fn difference_map(image: &[[f32; 3]], reference: &[[f32; 3]]) -> (Vec<[f32; 3]>,
     (panel, share)
 }
 
-struct Row {
-    scene: &'static str,
-    preset: &'static str,
-    colour: [u8; 3],
-    ms: f64,
-    ref_ms: f64,
-    rel_rmse: f64,
-    max_abs: f64,
-    nan_count: usize,
-}
-
-fn plot(rows: &[Row], path: &std::path::Path) -> Result<(), String> {
-    // Log–log axes: time ratio 10⁻³–1 across, relative RMSE 10⁻⁴–10 up, grid lines at decades.
-    let (w, h, margin) = (640u32, 400u32, 30u32);
-    let (x_decades, y_decades) = ((-3.0f64, 0.0f64), (-4.0f64, 1.0f64));
-    let to_px = |ratio: f64, error: f64| {
-        let fx = (ratio.max(1e-12).log10() - x_decades.0) / (x_decades.1 - x_decades.0);
-        let fy = (error.max(1e-12).log10() - y_decades.0) / (y_decades.1 - y_decades.0);
-        let x = f64::from(margin) + fx.clamp(0.0, 1.0) * f64::from(w - 2 * margin);
-        let y = f64::from(h - margin) - fy.clamp(0.0, 1.0) * f64::from(h - 2 * margin);
-        (x as u32, y as u32)
-    };
-    let mut image = image::RgbImage::from_pixel(w, h, image::Rgb([255, 255, 255]));
-    let grey = image::Rgb([215, 215, 215]);
-    for decade in -3..=0 {
-        let (x, _) = to_px(10f64.powi(decade), 1.0);
-        for y in margin..=h - margin {
-            image.put_pixel(x, y, grey);
-        }
-    }
-    for decade in -4..=1 {
-        let (_, y) = to_px(1.0, 10f64.powi(decade));
-        for x in margin..=w - margin {
-            image.put_pixel(x, y, grey);
-        }
-    }
-    for row in rows.iter().filter(|r| r.preset != "REFERENCE") {
-        let (cx, cy) = to_px(row.ms / row.ref_ms.max(1e-9), row.rel_rmse);
-        for dy in -3i32..=3 {
-            for dx in -3i32..=3 {
-                if dx * dx + dy * dy <= 9 {
-                    let (x, y) = (cx as i32 + dx, cy as i32 + dy);
-                    if x >= 0 && y >= 0 && (x as u32) < w && (y as u32) < h {
-                        image.put_pixel(x as u32, y as u32, image::Rgb(row.colour));
-                    }
-                }
-            }
-        }
-    }
-    image
-        .save(path)
-        .map_err(|e| format!("cannot write {}: {e}", path.display()))
-}
-
 /// Where `scene`'s error comes from: the CPU reference at 48×27 (no GPU, small noise, no jitter)
 /// with primary steps, light steps, cut-off and step growth changed one at a time, each against
 /// 512 primary and 64 light steps. Prints relative RMSE and mean bias of `L · 10⁻⁴ + 0.25 T`.
@@ -560,7 +517,49 @@ fn error_budget(scene: &Scene) {
     }
 }
 
+/// With `--docs DIR`: `DIR/performance.md` and `DIR/images/bench.svg` for `rows` and the
+/// `effects` CSV, with the command line that measured them.
+fn write_docs(args: &Args, rows: &[Row], effects: &str) -> Result<(), String> {
+    let Some(dir) = &args.docs else {
+        return Ok(());
+    };
+    let images = dir.join("images");
+    std::fs::create_dir_all(&images)
+        .map_err(|e| format!("cannot create {}: {e}", images.display()))?;
+    plot(rows, &images.join("bench.svg"))?;
+    let command = match &args.from_csv {
+        Some(_) => format!(
+            "cargo run --release --example bench -- --width {} --height {} --frames {} --docs {}",
+            args.width,
+            args.height,
+            args.frames,
+            dir.display()
+        ),
+        None => std::iter::once("cargo run --release --example bench --".to_owned())
+            .chain(std::env::args().skip(1))
+            .collect::<Vec<_>>()
+            .join(" "),
+    };
+    let path = dir.join("performance.md");
+    std::fs::write(
+        &path,
+        performance_md(rows, effects, &command, "images/bench.svg"),
+    )
+    .map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
 fn run(args: &Args) -> Result<(), String> {
+    if let Some(dir) = &args.from_csv {
+        let read = |name: &str| {
+            let path = dir.join(name);
+            std::fs::read_to_string(&path)
+                .map(|text| (path.clone(), text))
+                .map_err(|e| format!("cannot read {}: {e}", path.display()))
+        };
+        let (csv_path, csv) = read("bench.csv")?;
+        let (_, effects) = read("effects.csv")?;
+        return write_docs(args, &report::from_csv(&csv_path, &csv)?, &effects);
+    }
     if args.error_budget {
         for scene in showcase_scenes() {
             if matches!(scene.name, "cumulus_noon" | "sunset_behind_clouds") {
@@ -593,9 +592,10 @@ fn run(args: &Args) -> Result<(), String> {
         );
         eprintln!("{}: reference {:.1} ms", scene.name, reference.ms);
         rows.push(Row {
-            scene: scene.name,
-            preset: "REFERENCE",
-            colour: [0, 0, 0],
+            scene: scene.name.into(),
+            preset: "REFERENCE".into(),
+            width: args.width,
+            height: args.height,
             ms: reference.ms,
             ref_ms: reference.ms,
             rel_rmse: 0.0,
@@ -603,14 +603,9 @@ fn run(args: &Args) -> Result<(), String> {
             nan_count: reference.nan_count,
         });
         // Against a finer reference, the default one is measured too: how far it is converged.
-        let default_reference = (args.reference_steps != REFERENCE_STEPS).then(|| {
-            (
-                "REFERENCE_512",
-                reference_settings(REFERENCE_STEPS),
-                [0, 0, 0],
-            )
-        });
-        for (preset, mut settings, colour) in presets().into_iter().chain(default_reference) {
+        let default_reference = (args.reference_steps != REFERENCE_STEPS)
+            .then(|| ("REFERENCE_512", reference_settings(REFERENCE_STEPS)));
+        for (preset, mut settings) in presets().into_iter().chain(default_reference) {
             settings.jitter &= !args.no_jitter;
             let measured = measure(&mut rig, &scene, &settings, args.frames);
             let (rel_rmse, max_abs) = errors(&measured.composite, &reference.composite);
@@ -634,9 +629,10 @@ fn run(args: &Args) -> Result<(), String> {
                 &[&measured.composite, &reference.composite, &difference],
             );
             rows.push(Row {
-                scene: scene.name,
-                preset,
-                colour,
+                scene: scene.name.into(),
+                preset: preset.into(),
+                width: args.width,
+                height: args.height,
                 ms: measured.ms,
                 ref_ms: reference.ms,
                 rel_rmse,
@@ -648,23 +644,7 @@ fn run(args: &Args) -> Result<(), String> {
     if args.scene.is_some() {
         return Ok(());
     }
-    let mut csv = String::from(
-        "scene,preset,width,height,ms_per_frame,ref_ms_per_frame,rel_rmse,max_abs_err,nan_count\n",
-    );
-    for r in &rows {
-        csv.push_str(&format!(
-            "{},{},{},{},{:.3},{:.3},{:.5},{:.5},{}\n",
-            r.scene,
-            r.preset,
-            args.size().x,
-            args.size().y,
-            r.ms,
-            r.ref_ms,
-            r.rel_rmse,
-            r.max_abs,
-            r.nan_count
-        ));
-    }
+    let csv = to_csv(&rows);
     let effects = measure_effects(&mut rig, args.frames);
     let effects_path = args.out.join("effects.csv");
     std::fs::write(&effects_path, &effects)
@@ -673,9 +653,9 @@ fn run(args: &Args) -> Result<(), String> {
     let csv_path = args.out.join("bench.csv");
     std::fs::write(&csv_path, &csv)
         .map_err(|e| format!("cannot write {}: {e}", csv_path.display()))?;
-    plot(&rows, &args.out.join("bench.png"))?;
+    plot(&rows, &args.out.join("bench.svg"))?;
     print!("{csv}");
-    Ok(())
+    write_docs(args, &rows, &effects)
 }
 
 fn main() -> ExitCode {

@@ -1,0 +1,278 @@
+//! What the bench writes from its measurements: `bench.csv`, the speed-against-error plot and
+//! `docs/performance.md`, all from the same rows, so the documented figures are the CSV's.
+
+use std::path::Path;
+
+use plotters::prelude::*;
+
+/// One measured preset (or the reference) in one scene: a row of `bench.csv`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    pub scene: String,
+    pub preset: String,
+    pub width: u32,
+    pub height: u32,
+    /// The cloud pass's cost, ms per frame (median with clouds minus median without).
+    pub ms: f64,
+    /// The reference's cost in the same scene, ms per frame.
+    pub ref_ms: f64,
+    /// Relative RMSE of the linear luminance against the reference.
+    pub rel_rmse: f64,
+    /// Largest absolute luminance difference.
+    pub max_abs: f64,
+    /// Pixels that were NaN or infinite.
+    pub nan_count: usize,
+}
+
+impl Row {
+    /// The cost as a share of the reference's.
+    pub fn time_ratio(&self) -> f64 {
+        self.ms / self.ref_ms.max(1e-9)
+    }
+}
+
+/// The header of `bench.csv`.
+pub const BENCH_HEADER: &str =
+    "scene,preset,width,height,ms_per_frame,ref_ms_per_frame,rel_rmse,max_abs_err,nan_count";
+
+/// `rows` as `bench.csv`.
+pub fn to_csv(rows: &[Row]) -> String {
+    let mut csv = format!("{BENCH_HEADER}\n");
+    for r in rows {
+        csv.push_str(&format!(
+            "{},{},{},{},{:.3},{:.3},{:.5},{:.5},{}\n",
+            r.scene,
+            r.preset,
+            r.width,
+            r.height,
+            r.ms,
+            r.ref_ms,
+            r.rel_rmse,
+            r.max_abs,
+            r.nan_count
+        ));
+    }
+    csv
+}
+
+/// The rows of a `bench.csv` read from `file`; an error names the file and the row.
+pub fn from_csv(file: &Path, text: &str) -> Result<Vec<Row>, String> {
+    let mut lines = text.lines();
+    if lines.next().map(str::trim) != Some(BENCH_HEADER) {
+        return Err(format!("{}: row 1 is not {BENCH_HEADER:?}", file.display()));
+    }
+    lines
+        .enumerate()
+        .filter(|(_, line)| !line.trim().is_empty())
+        .map(|(i, line)| {
+            let bad = |what: &str| format!("{}: row {}: {what}", file.display(), i + 2);
+            let fields: Vec<&str> = line.split(',').collect();
+            let [
+                scene,
+                preset,
+                width,
+                height,
+                ms,
+                ref_ms,
+                rel_rmse,
+                max_abs,
+                nan_count,
+            ] = fields[..]
+            else {
+                return Err(bad(&format!("{} fields, expected 9", fields.len())));
+            };
+            let number = |text: &str| -> Result<f64, String> {
+                text.parse::<f64>()
+                    .ok()
+                    .filter(|v| v.is_finite())
+                    .ok_or_else(|| bad(&format!("{text:?} is not a number")))
+            };
+            let whole = |text: &str| -> Result<u32, String> {
+                text.parse()
+                    .map_err(|_| bad(&format!("{text:?} is not a whole number")))
+            };
+            Ok(Row {
+                scene: scene.to_owned(),
+                preset: preset.to_owned(),
+                width: whole(width)?,
+                height: whole(height)?,
+                ms: number(ms)?,
+                ref_ms: number(ref_ms)?,
+                rel_rmse: number(rel_rmse)?,
+                max_abs: number(max_abs)?,
+                nan_count: whole(nan_count)? as usize,
+            })
+        })
+        .collect()
+}
+
+/// The colour of a preset in the plot.
+fn preset_colour(preset: &str) -> RGBColor {
+    match preset {
+        "LOW" => RGBColor(210, 50, 40),
+        "MEDIUM" => RGBColor(220, 160, 0),
+        "HIGH" => RGBColor(40, 160, 70),
+        "ULTRA" => RGBColor(50, 100, 220),
+        _ => RGBColor(90, 90, 90),
+    }
+}
+
+/// The speed-against-error plot of `rows` (the presets, not the reference) as an SVG at `path`:
+/// log–log axes of the cloud pass's time as a share of the reference's and of the relative RMSE,
+/// one colour per preset, one marker per scene.
+pub fn plot(rows: &[Row], path: &Path) -> Result<(), String> {
+    let error = |e: &dyn std::fmt::Display| format!("cannot draw {}: {e}", path.display());
+    let points: Vec<&Row> = rows
+        .iter()
+        .filter(|r| !r.preset.starts_with("REFERENCE"))
+        .collect();
+    let mut scenes: Vec<&str> = Vec::new();
+    let mut presets: Vec<&str> = Vec::new();
+    for r in &points {
+        if !scenes.contains(&r.scene.as_str()) {
+            scenes.push(&r.scene);
+        }
+        if !presets.contains(&r.preset.as_str()) {
+            presets.push(&r.preset);
+        }
+    }
+    let root = SVGBackend::new(path, (800, 520)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| error(&e))?;
+    let size = points
+        .first()
+        .map_or(String::new(), |r| format!(", {}×{}", r.width, r.height));
+    let mut chart = ChartBuilder::on(&root)
+        .caption(format!("Speed against error{size}"), ("sans-serif", 22))
+        .margin(12)
+        .x_label_area_size(48)
+        .y_label_area_size(64)
+        .build_cartesian_2d((1e-3f64..1.0f64).log_scale(), (1e-4f64..1.0f64).log_scale())
+        .map_err(|e| error(&e))?;
+    chart
+        .configure_mesh()
+        .x_desc("cloud pass time / reference's time")
+        .y_desc("relative RMSE of luminance")
+        .x_label_formatter(&|x| format!("{x:.0e}"))
+        .y_label_formatter(&|y| format!("{y:.0e}"))
+        .draw()
+        .map_err(|e| error(&e))?;
+    let clamp = |r: &Row| (r.time_ratio().clamp(1e-3, 1.0), r.rel_rmse.clamp(1e-4, 1.0));
+    for r in &points {
+        let colour = preset_colour(&r.preset);
+        let scene = scenes.iter().position(|s| *s == r.scene).unwrap_or(0);
+        let at = clamp(r);
+        let (filled, line) = (colour.filled(), colour.stroke_width(2));
+        let drawn = match scene % 5 {
+            0 => chart.draw_series(std::iter::once(Circle::new(at, 5, filled))),
+            1 => chart.draw_series(std::iter::once(TriangleMarker::new(at, 6, filled))),
+            2 => chart.draw_series(std::iter::once(
+                EmptyElement::at(at) + Rectangle::new([(-4, -4), (4, 4)], filled),
+            )),
+            3 => chart.draw_series(std::iter::once(Cross::new(at, 5, line))),
+            _ => chart.draw_series(std::iter::once(Circle::new(at, 5, line))),
+        };
+        drawn.map_err(|e| error(&e))?;
+    }
+    for preset in &presets {
+        let colour = preset_colour(preset);
+        chart
+            .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
+            .map_err(|e| error(&e))?
+            .label(*preset)
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 10, y + 5)], colour.filled()));
+    }
+    for (index, scene) in scenes.iter().enumerate() {
+        chart
+            .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
+            .map_err(|e| error(&e))?
+            .label(*scene)
+            .legend(move |(x, y)| {
+                let style = BLACK.filled();
+                match index % 5 {
+                    0 => Circle::new((x + 5, y), 5, style).into_dyn(),
+                    1 => TriangleMarker::new((x + 5, y), 6, style).into_dyn(),
+                    2 => Rectangle::new([(x + 1, y - 4), (x + 9, y + 4)], style).into_dyn(),
+                    3 => Cross::new((x + 5, y), 5, BLACK.stroke_width(2)).into_dyn(),
+                    _ => Circle::new((x + 5, y), 5, BLACK.stroke_width(2)).into_dyn(),
+                }
+            });
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| error(&e))?;
+    root.present().map_err(|e| error(&e))
+}
+
+/// `docs/performance.md` for `rows` and the `effects` CSV, measured with `command`; the plot is
+/// at `plot` (relative to the document).
+pub fn performance_md(rows: &[Row], effects: &str, command: &str, plot: &str) -> String {
+    let mut scenes: Vec<&str> = Vec::new();
+    let mut presets: Vec<&str> = Vec::new();
+    for r in rows.iter().filter(|r| !r.preset.starts_with("REFERENCE")) {
+        if !scenes.contains(&r.scene.as_str()) {
+            scenes.push(&r.scene);
+        }
+        if !presets.contains(&r.preset.as_str()) {
+            presets.push(&r.preset);
+        }
+    }
+    let size = rows
+        .first()
+        .map_or(String::new(), |r| format!("{}×{}", r.width, r.height));
+    let mut md = format!(
+        "# Performance\n\n\
+         Written by the `bench` example from its CSV files; do not edit by hand. Regenerate \
+         with\n\n```sh\n{command}\n```\n\n\
+         Each cell is the relative RMSE of the linear luminance against a converged reference \
+         march (512 primary and 64 light steps per interval, no jitter, no early exit, full \
+         resolution), at the cloud pass's time as a share of the reference's, at {size}. \
+         Presets that accumulate jittered frames are measured once the accumulation has \
+         settled. The times are from software Vulkan (lavapipe) when no GPU is named: CPU \
+         times, to be compared as ratios within this run, not as milliseconds. \
+         `examples/bench/main.rs` documents every column.\n\n## Speed against error\n\n"
+    );
+    md.push_str(&format!("| scene | {} |\n", presets.join(" | ")));
+    md.push_str(&format!("|---|{}\n", "---|".repeat(presets.len())));
+    for scene in &scenes {
+        let cells: Vec<String> = presets
+            .iter()
+            .map(|preset| {
+                rows.iter()
+                    .find(|r| r.scene == *scene && r.preset == *preset)
+                    .map_or("–".into(), |r| {
+                        format!(
+                            "{:.2} % at {:.1} %",
+                            100.0 * r.rel_rmse,
+                            100.0 * r.time_ratio()
+                        )
+                    })
+            })
+            .collect();
+        md.push_str(&format!("| {scene} | {} |\n", cells.join(" | ")));
+    }
+    md.push_str(&format!(
+        "\n![Speed against error of the presets]({plot})\n"
+    ));
+    let mut effect_lines = effects.lines();
+    if let Some(header) = effect_lines.next() {
+        md.push_str(
+            "\n## What each effect costs\n\nThe median whole-frame time with each optional \
+             effect over the median without it, on `cumulus_noon` with `MEDIUM` \
+             (`effects.csv`).\n\n",
+        );
+        let columns: Vec<&str> = header.split(',').collect();
+        md.push_str(&format!("| {} |\n", columns.join(" | ")));
+        md.push_str(&format!("|{}\n", "---|".repeat(columns.len())));
+        for line in effect_lines.filter(|l| !l.trim().is_empty()) {
+            md.push_str(&format!(
+                "| {} |\n",
+                line.split(',').collect::<Vec<_>>().join(" | ")
+            ));
+        }
+    }
+    md
+}
