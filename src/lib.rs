@@ -15,6 +15,7 @@
 //! | noise | [`render::noise`] | compute pass filling tileable 3D cloud-noise textures once |
 //! | march | [`render::march`] | fullscreen ray-march of the layers per camera, stopped by the depth prepass, composited in HDR |
 //! | shadow | [`render::shadow`] | the cloud shadow map along the sun, applied to the sun's light on every `StandardMaterial` |
+//! | CPU queries | [`query`] | [`query::CloudQuery`]: density, "in cloud?" and sunlight at any point, for game logic |
 //! | precipitation | [`precipitation`] | rain and snow near the camera, from the layers' rain rate |
 //! | terrain | [`terrain`] | DEM readers and a terrain mesh builder (for the Bern demo and your own scenes) |
 //!
@@ -45,6 +46,7 @@ use bevy::{
 
 pub mod layers;
 pub mod precipitation;
+pub mod query;
 #[doc(hidden)]
 pub mod reference;
 pub mod render;
@@ -61,6 +63,7 @@ pub mod prelude {
     pub use crate::precipitation::{
         PrecipitationPlugin, PrecipitationSettings, PrecipitationState,
     };
+    pub use crate::query::{CloudQuery, CloudQueryPlugin};
     pub use crate::render::{
         CloudQuality, VolumetricClouds,
         haze::Haze,

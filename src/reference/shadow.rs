@@ -210,6 +210,41 @@ pub fn shadow_optical_depth(
     total
 }
 
+/// Optical depth toward the sun from `position_m` (relative to the camera of `settings`) through
+/// the layers above it: the part above the point's altitude of the sun line's samples
+/// ([`shadow_optical_depth`]), a sample straddling the point counted by the fraction above it.
+/// The CPU queries use it for points under or between layers. No WGSL twin.
+pub fn optical_depth_above(
+    textures: &CloudTextures,
+    settings: &MarchSettings,
+    layers: &[MarchLayer],
+    position_m: [f64; 3],
+    steps: u32,
+    footprint_m: f64,
+) -> f64 {
+    let altitude = altitude_of(settings, position_m);
+    let mut total = 0.0;
+    visit_sun_line(
+        textures,
+        settings,
+        layers,
+        position_m,
+        steps,
+        footprint_m,
+        |_, [lower, upper], x| {
+            if upper > altitude {
+                let above = if lower >= altitude || upper <= lower {
+                    1.0
+                } else {
+                    (upper - altitude) / (upper - lower)
+                };
+                total += x * above;
+            }
+        },
+    );
+    total
+}
+
 /// Optical depths from the top of the clouds at which a shadow-map texel records the altitude of
 /// its sun line ([`shadow_column`]). WGSL twin: `SHADOW_KNOT_DEPTHS`.
 pub const SHADOW_KNOT_DEPTHS: [f64; 2] = [1.0, 4.0];
