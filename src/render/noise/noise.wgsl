@@ -1,7 +1,7 @@
 // Tileable cloud noise: compute shaders that fill the base (3D), detail (3D) and weather (2D)
 // noise textures and box-filter the 3D mip chains.
 //
-// CPU twin: `src/reference/noise.rs`. Every function here has a Rust function of the same name
+// CPU twin: `src/reference/noise/mod.rs`. Every function here has a Rust function of the same name
 // there (f64 there, f32 here) and the GPU output is tested against it, so change both together.
 // The module docs there explain the noises, the channel recipes and the tiling.
 //
