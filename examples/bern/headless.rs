@@ -1,0 +1,37 @@
+//! Headless runs: time-lapse shots and waiting for the forecasts.
+
+use super::*;
+
+/// Each time-lapse image shows `--time` plus `--step` per image.
+pub(crate) fn follow_headless_shots(
+    progress: Res<HeadlessProgress>,
+    options: Res<BernOptions>,
+    mut clock: ResMut<SceneClock>,
+) {
+    let offset_s = options.step_s.saturating_mul(i64::from(progress.shot));
+    let t = options.time.saturating_add_seconds(offset_s).unix_seconds() as f64;
+    if clock.unix_seconds() != t {
+        clock.set_unix_seconds(t);
+    }
+}
+
+/// Holds the capture until the forecasts have loaded (or failed: then the frame shows what the
+/// layers have, and the log says why).
+pub(crate) fn wait_for_forecasts(
+    mut progress: ResMut<HeadlessProgress>,
+    source: Res<WeatherSource>,
+    server: Res<AssetServer>,
+) {
+    if progress.ready {
+        return;
+    }
+    let settled = |handle: &Handle<Forecast>| {
+        matches!(
+            server.load_state(handle.id()),
+            LoadState::Loaded | LoadState::Failed(_)
+        )
+    };
+    if source.near.iter().all(settled) && source.far.iter().all(|far| settled(&far.forecast)) {
+        progress.ready = true;
+    }
+}

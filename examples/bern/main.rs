@@ -1,0 +1,238 @@
+//! The Bern demo: a week of bundled forecasts over the real terrain around Bern, seen from the
+//! Gurten (north-north-east over the city toward Solothurn) or from the Bantiger (south-west
+//! toward Fribourg), with the sun where it really is at the scene time.
+//!
+//! ```text
+//! cargo run --release --example bern                        # a window, keyboard controls
+//! cargo run --release --example bern --features inspector   # a window with egui panels
+//! cargo run --release --example bern -- --headless --camera gurten \
+//!     --time 2021-05-03T14:00:00Z --out bern.png            # one frame, no window
+//! cargo run --release --example bern -- --headless --camera bantiger \
+//!     --time 2021-05-03T04:00:00Z --frames 96 --step 10m --out frames   # a time-lapse
+//! ```
+//!
+//! # Controls (window)
+//!
+//! | key | does |
+//! |---|---|
+//! | `1`, `2` | Gurten view (far forecast Solothurn), Bantiger view (far forecast Fribourg) |
+//! | `F` | free-fly camera on/off: `W` `A` `S` `D` move, `E` `Q` up and down, `Shift` runs, hold the right mouse button (or toggle with `M`) to look around, the wheel changes speed |
+//! | `Space` | pause or run the scene clock |
+//! | `+`, `-` | clock speed 1×, 60×, 3600× |
+//! | `←`, `→` | one hour back or forward |
+//! | `P`, `[`, `]` | photo overlay on/off, move its wiper left or right (with `--photos`) |
+//!
+//! With `--features inspector` an egui window offers the same and more: **Live** mode (a time
+//! slider over the near forecast, "now", play/pause, 1×/60×/3600×) and **Play** mode (sliders for
+//! low, mid and high cover, precipitation, showers, wind and time of day, which drive the layers
+//! through the crate's own weather mapping), the frame rate and the cloud passes' GPU times, the
+//! photo overlay's settings, and an inspector for every `CloudLayer` and the camera's
+//! `VolumetricClouds`.
+//!
+//! # Flags
+//!
+//! | flag | meaning | default |
+//! |---|---|---|
+//! | `--camera gurten\|bantiger` | the view | `gurten` |
+//! | `--time RFC3339` | scene time, e.g. `2021-05-03T14:00:00Z`; the clock runs from there at 1× (paused when headless) | `2021-05-03T14:00:00Z` |
+//! | `--headless` | render without a window and write a PNG to `--out` | off |
+//! | `--out PATH` | the PNG; with `--frames`, a folder of `frame_000.png`, `frame_001.png`, … | `bern.png`, `bern_frames` |
+//! | `--width W`, `--height H` | headless image size, pixels | 1280 × 720 |
+//! | `--frames N`, `--step D` | headless time-lapse: `N` images `D` apart (`30s`, `10m`, `1h`, `1d`) | one image, `10m` |
+//! | `--warmup N` | frames rendered before the first image (the clouds' temporal accumulation settles in about 20) | 24 |
+//! | `--photos DIR` | photos to compare with, see below | none |
+//! | `--photo-opacity X` | opacity of the photo overlay, 0–1 | 0.5 |
+//! | `--photo-wiper X` | fraction of the width, from the left, that shows the photo | 1 |
+//! | `--ev100 EV` | camera exposure | 14 (sunlit scenes; Bevy's atmosphere example uses 13) |
+//! | `--azimuth DEG` | look this way from the view's hill, degrees clockwise from north (toward a low sun for light shafts) | the view's own: Gurten 20°, Bantiger 225° |
+//! | `--no-clouds` | no `VolumetricClouds` on the camera: the same frame without clouds (CI compares the two) | clouds on |
+//! | `--log-frame-times` | log the frame time and the cloud passes' GPU times every second | off |
+//! | `--no-cloud-shadows` | turn the cloud shadow map off (to compare, or to time its cost) | on |
+//! | `--dem PATH` | elevation file (ESRI ASCII grid or `GeoTIFF`, WGS 84 degrees) | `assets/terrain/bern_globe30s.asc` |
+//!
+//! A bad flag exits with status 2 and a message. Without a display, run with `--headless`.
+//!
+//! # Your own data
+//!
+//! - **Forecasts**: replace `assets/weather/bern.json` (near), `solothurn.json` and
+//!   `fribourg.json` (far) with meteoblue or Open-Meteo JSON for the same places; a file
+//!   replaced while the demo runs is reloaded.
+//! - **Terrain**: `--dem` takes any ESRI ASCII grid or `GeoTIFF` in geographic degrees that covers
+//!   Bern. If it cannot be read the error (file and line) is logged and shown on screen, and the
+//!   demo goes on over flat ground at 540 m.
+//! - **Photos** (Thomann 2021 §7.3, the Roundshot overlay): `--photos DIR` reads
+//!   `DIR/gurten/YYYY-MM-DDTHH-MM.jpg` and `DIR/bantiger/…` (`.jpg`, `.jpeg` or `.png`; the time
+//!   is UTC, e.g. `gurten/2021-05-03T14-00.jpg`). The photo nearest the scene time is drawn over
+//!   the view, left of a wiper, with the chosen opacity. Missing folders or photos are reported,
+//!   never fatal.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod cli;
+mod headless;
+#[cfg(feature = "inspector")]
+mod panel;
+mod photos;
+mod scene;
+mod view;
+mod viewpoint;
+
+use cli::*;
+use headless::*;
+use photos::*;
+use scene::*;
+use view::*;
+use viewpoint::*;
+
+use std::{
+    path::{Path, PathBuf},
+    time::Instant,
+};
+
+use bevy::{
+    asset::{LoadState, RenderAssetUsages, io::file::FileAssetReader},
+    camera::Exposure,
+    camera_controller::free_camera::{FreeCamera, FreeCameraPlugin, FreeCameraState},
+    core_pipeline::tonemapping::Tonemapping,
+    image::{CompressedImageFormats, ImageSampler, ImageType},
+    light::{
+        Atmosphere, AtmosphereEnvironmentMapLight, atmosphere::ScatteringMedium, light_consts::lux,
+    },
+    math::DVec2,
+    mesh::{Indices, PrimitiveTopology},
+    pbr::AtmosphereSettings,
+    post_process::bloom::Bloom,
+    prelude::*,
+    text::FontSize,
+};
+use bevy_cloudscape::{
+    prelude::*,
+    terrain::{Dem, Summit, TangentPlane, TerrainMesh, TerrainSettings},
+    weather::{FarForecast, WeatherState},
+};
+use common::{ExampleArgs, HeadlessCapturePlugin, HeadlessProgress, HeadlessShots, MainCamera};
+
+/// Height of Bern above sea level, metres: the ground the cloud layers' altitudes count from.
+const BERN_GROUND_M: f32 = 540.0;
+/// The bundled elevation model, under the asset folder.
+const DEM_ASSET: &str = "terrain/bern_globe30s.asc";
+/// The near forecast, under the asset folder.
+const NEAR_FORECAST: &str = "weather/bern.json";
+/// An afternoon of fair-weather cumulus in the bundled week (16:00 CEST on Monday 3 May 2021).
+const DEFAULT_TIME: &str = "2021-05-03T14:00:00Z";
+/// Eye height above the ground, metres.
+const EYE_HEIGHT_M: f32 = 1.7;
+/// Vertical field of view, degrees: 79° across at 16:9, like a 21 mm lens on full frame.
+const FOV_DEG: f32 = 50.0;
+/// The views look slightly down, into the valley.
+const PITCH_DEG: f32 = -2.0;
+/// Clock speeds the keys and the panel step through: real time, a minute and an hour per second.
+const CLOCK_SPEEDS: [f64; 3] = [1.0, 60.0, 3600.0];
+/// Camera exposure, EV100 (`--ev100`).
+const DEFAULT_EV100: f32 = 14.0;
+/// Frames between two time-lapse images, for the atmosphere LUTs to follow the sun and the
+/// clouds' temporal accumulation (a blend of 0.1) to settle on the new time.
+const SETTLE_FRAMES: u32 = 16;
+/// Frames before the first headless image when `--warmup` is not given: the pipelines and LUTs
+/// need a few, and the clouds' temporal accumulation about twenty to settle.
+const DEFAULT_WARMUP: u32 = 24;
+
+fn main() -> AppExit {
+    let (args, options) = match <Cli as clap::Parser>::parse().options() {
+        Ok(parsed) => parsed,
+        Err(message) => {
+            eprintln!("bern: {message}");
+            return AppExit::from_code(2);
+        }
+    };
+    // winit panics without a display; say what to do instead.
+    if cfg!(target_os = "linux") && !args.headless && std::env::var_os("DISPLAY").is_none() {
+        eprintln!(
+            "bern: no display (DISPLAY is not set). Render to a file instead:\n  \
+             cargo run --example bern -- --headless --camera gurten --out bern.png"
+        );
+        return AppExit::from_code(2);
+    }
+
+    let mut clock = SceneClock::at(options.time);
+    clock.paused = args.headless;
+    let mut app = App::new();
+    app.add_plugins((
+        common::default_plugins(&args, "bevy_cloudscape: Bern"),
+        CloudscapePlugin,
+    ))
+    // The atmosphere's environment map lights the terrain instead.
+    .insert_resource(GlobalAmbientLight::NONE)
+    .insert_resource(clock)
+    .insert_resource(ViewState {
+        viewpoint: options.viewpoint,
+        free: false,
+        azimuth_deg: options.azimuth_deg,
+    })
+    .insert_resource(PhotoOverlay {
+        visible: options.photos.is_some(),
+        opacity: options.photo_opacity,
+        wiper: options.photo_wiper,
+        ..default()
+    })
+    .init_resource::<UiCapturesKeyboard>()
+    .add_systems(
+        Startup,
+        (load_terrain, spawn_scene, spawn_photo_overlay).chain(),
+    )
+    .add_systems(Update, (apply_view, update_photo_overlay));
+
+    if args.headless {
+        let mut progress = HeadlessProgress::default();
+        progress.ready = false;
+        app.insert_resource(HeadlessShots {
+            count: options.shots.unwrap_or(1),
+            settle_frames: SETTLE_FRAMES,
+        })
+        .insert_resource(progress)
+        .add_plugins(HeadlessCapturePlugin)
+        .add_systems(
+            Update,
+            (
+                follow_headless_shots.before(CloudscapeSystems::Clock),
+                wait_for_forecasts.after(CloudscapeSystems::Layers),
+            ),
+        );
+    } else {
+        app.add_plugins(FreeCameraPlugin).add_systems(
+            Update,
+            (
+                view_keys.before(apply_view),
+                clock_keys.before(CloudscapeSystems::Clock),
+                photo_keys.before(update_photo_overlay),
+            ),
+        );
+        #[cfg(not(feature = "inspector"))]
+        app.add_systems(Startup, spawn_help_overlay.after(spawn_scene))
+            .add_systems(Update, update_help_overlay);
+        #[cfg(feature = "inspector")]
+        app.add_plugins(panel::PanelPlugin);
+    }
+    if options.log_frame_times {
+        use bevy::{
+            diagnostic::{FrameTimeDiagnosticsPlugin, LogDiagnosticsPlugin},
+            render::diagnostic::RenderDiagnosticsPlugin,
+        };
+        // The inspector panel adds the first two already.
+        if !app.is_plugin_added::<FrameTimeDiagnosticsPlugin>() {
+            app.add_plugins(FrameTimeDiagnosticsPlugin::default());
+        }
+        if !app.is_plugin_added::<RenderDiagnosticsPlugin>() {
+            app.add_plugins(RenderDiagnosticsPlugin);
+        }
+        app.add_plugins(LogDiagnosticsPlugin::default());
+    }
+    app.insert_resource(CloudShadows {
+        enabled: options.cloud_shadows,
+        ..default()
+    })
+    .insert_resource(options)
+    .insert_resource(args)
+    .run()
+}

@@ -1,0 +1,421 @@
+//! The live/play window (Thomann 2021's requirements, §2.4 UI mock-ups), performance numbers,
+//! the photo overlay's settings, and an inspector for the layers and the camera's clouds.
+
+use bevy::{
+    diagnostic::{DiagnosticsStore, FrameTimeDiagnosticsPlugin},
+    ecs::component::Mutable,
+    render::diagnostic::RenderDiagnosticsPlugin,
+};
+use bevy_cloudscape::weather::{Variable, WeatherMapping};
+use bevy_egui::{
+    EguiContext, EguiContexts, EguiPlugin, EguiPrimaryContextPass, PrimaryEguiContext, egui,
+};
+use bevy_inspector_egui::{DefaultInspectorConfigPlugin, bevy_inspector};
+
+use super::*;
+
+pub struct PanelPlugin;
+
+impl Plugin for PanelPlugin {
+    fn build(&self, app: &mut App) {
+        app.add_plugins((
+            EguiPlugin::default(),
+            DefaultInspectorConfigPlugin,
+            FrameTimeDiagnosticsPlugin::default(),
+            RenderDiagnosticsPlugin,
+        ))
+        .init_resource::<PanelState>()
+        .add_systems(
+            EguiPrimaryContextPass,
+            (control_window, inspector_window).chain(),
+        )
+        .add_systems(Update, drive_play_layers.after(CloudscapeSystems::Layers));
+    }
+}
+
+/// Live: the forecasts drive the layers. Play: the sliders do.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+enum Mode {
+    #[default]
+    Live,
+    Play,
+}
+
+/// The play mode's weather, in forecast units.
+#[derive(Clone, Debug, PartialEq)]
+struct PlayWeather {
+    low_cover: f32,
+    mid_cover: f32,
+    high_cover: f32,
+    precipitation_mm_per_h: f32,
+    /// The precipitation falls as showers (convective), which brings cumulonimbus.
+    showers: bool,
+    wind_speed_m_s: f32,
+    /// Where the wind blows from, degrees clockwise from north.
+    wind_from_deg: f32,
+}
+
+impl Default for PlayWeather {
+    fn default() -> Self {
+        Self {
+            low_cover: 0.4,
+            mid_cover: 0.0,
+            high_cover: 0.2,
+            precipitation_mm_per_h: 0.0,
+            showers: false,
+            wind_speed_m_s: 3.0,
+            wind_from_deg: 270.0,
+        }
+    }
+}
+
+impl PlayWeather {
+    /// Starts from what the forecast says now, so switching to play changes nothing yet.
+    fn from_state(state: &WeatherState) -> Self {
+        let fallback = Self::default();
+        Self {
+            low_cover: state.low_cover().unwrap_or(fallback.low_cover),
+            mid_cover: state.mid_cover().unwrap_or(fallback.mid_cover),
+            high_cover: state.high_cover().unwrap_or(fallback.high_cover),
+            precipitation_mm_per_h: state.precipitation_mm_per_h().unwrap_or(0.0),
+            showers: state
+                .get(Variable::ConvectivePrecipitation)
+                .is_some_and(|v| v > 0.0),
+            wind_speed_m_s: state.wind_speed_m_s().unwrap_or(fallback.wind_speed_m_s),
+            wind_from_deg: state.wind_direction_deg().unwrap_or(fallback.wind_from_deg),
+        }
+    }
+
+    /// A forecast state holding these values.
+    fn to_state(&self, time: UtcInstant) -> WeatherState {
+        let mut state = WeatherState::empty(time);
+        let convective = if self.showers {
+            self.precipitation_mm_per_h
+        } else {
+            0.0
+        };
+        for (variable, value) in [
+            (Variable::LowCover, self.low_cover),
+            (Variable::MidCover, self.mid_cover),
+            (Variable::HighCover, self.high_cover),
+            (
+                Variable::TotalCover,
+                self.low_cover.max(self.mid_cover).max(self.high_cover),
+            ),
+            (Variable::Precipitation, self.precipitation_mm_per_h),
+            (Variable::ConvectivePrecipitation, convective),
+            (Variable::WindSpeed, self.wind_speed_m_s),
+            (
+                Variable::WindDirection,
+                self.wind_from_deg.rem_euclid(360.0),
+            ),
+        ] {
+            state.values[variable as usize] = Some(value);
+        }
+        state
+    }
+}
+
+#[derive(Resource, Default)]
+struct PanelState {
+    mode: Mode,
+    play: PlayWeather,
+}
+
+fn control_window(
+    mut contexts: EguiContexts,
+    mut panel: ResMut<PanelState>,
+    mut clock: ResMut<SceneClock>,
+    mut view: ResMut<ViewState>,
+    mut overlay: ResMut<PhotoOverlay>,
+    mut captured: ResMut<UiCapturesKeyboard>,
+    mut layers: Query<&mut CloudLayer, With<LayerSlot>>,
+    options: Res<BernOptions>,
+    source: Res<WeatherSource>,
+    forecasts: Res<Assets<Forecast>>,
+    current: Res<CurrentWeather>,
+    diagnostics: Res<DiagnosticsStore>,
+) -> Result {
+    let ctx = contexts.ctx_mut()?;
+    let forecast = near_forecast(&source, &forecasts);
+    egui::Window::new("Bern")
+        .default_pos([12.0, 12.0])
+        .show(ctx, |ui| {
+            ui.spacing_mut().slider_width = 220.0;
+            let mut next_view = *view;
+            ui.horizontal(|ui| {
+                ui.label("View:");
+                for viewpoint in Viewpoint::ALL {
+                    let label = format!("{} -> {}", viewpoint.name(), viewpoint.far_place());
+                    if ui
+                        .selectable_label(
+                            next_view.viewpoint == viewpoint && !next_view.free,
+                            label,
+                        )
+                        .clicked()
+                    {
+                        next_view = ViewState {
+                            viewpoint,
+                            free: false,
+                            azimuth_deg: None,
+                        };
+                    }
+                }
+                ui.checkbox(&mut next_view.free, "free camera (F)");
+            });
+            view.set_if_neq(next_view);
+            ui.separator();
+
+            let mut mode = panel.mode;
+            ui.horizontal(|ui| {
+                ui.selectable_value(&mut mode, Mode::Live, "Live");
+                ui.selectable_value(&mut mode, Mode::Play, "Play");
+            });
+            if mode != panel.mode {
+                switch_mode(&mut panel, mode, &current, &mut layers);
+            }
+            ui.label(time_label(clock.unix_seconds(), forecast));
+            match panel.mode {
+                Mode::Live => live_controls(ui, &mut clock, forecast, &current),
+                Mode::Play => {
+                    let mut play = panel.play.clone();
+                    play_controls(ui, &mut play, &mut clock, forecast);
+                    if play != panel.play {
+                        panel.play = play;
+                    }
+                }
+            }
+            ui.separator();
+
+            if options.photos.is_some() {
+                let mut settings = overlay.clone();
+                ui.horizontal(|ui| {
+                    ui.checkbox(&mut settings.visible, "photo overlay");
+                    ui.add(egui::Slider::new(&mut settings.opacity, 0.0..=1.0).text("opacity"));
+                });
+                ui.add(egui::Slider::new(&mut settings.wiper, 0.0..=1.0).text("wiper"));
+                ui.label(&settings.status);
+                if settings.visible != overlay.visible
+                    || settings.opacity != overlay.opacity
+                    || settings.wiper != overlay.wiper
+                {
+                    *overlay = settings;
+                }
+                ui.separator();
+            }
+
+            let fps = diagnostics
+                .get(&FrameTimeDiagnosticsPlugin::FPS)
+                .and_then(|fps| fps.smoothed());
+            ui.label(fps.map_or("FPS: -".into(), |fps| format!("FPS: {fps:.1}")));
+            // The cloud passes time themselves ("cloud_march", "cloud_noise"); GPU times
+            // appear where the device has timestamp queries.
+            for diagnostic in diagnostics.iter() {
+                let path = diagnostic.path().as_str();
+                if path.starts_with("render/cloud")
+                    && let Some(value) = diagnostic.smoothed()
+                {
+                    ui.label(format!("{path}: {value:.2} {}", diagnostic.suffix));
+                }
+            }
+        });
+    captured.set_if_neq(UiCapturesKeyboard(ctx.egui_wants_keyboard_input()));
+    Ok(())
+}
+
+/// Play mode takes the layers off the forecast; live mode gives them back.
+fn switch_mode(
+    panel: &mut PanelState,
+    mode: Mode,
+    current: &CurrentWeather,
+    layers: &mut Query<&mut CloudLayer, With<LayerSlot>>,
+) {
+    panel.mode = mode;
+    if mode == Mode::Play
+        && let Some(near) = &current.near
+    {
+        panel.play = PlayWeather::from_state(&near.state);
+    }
+    for mut layer in layers.iter_mut() {
+        layer.weather_driven = mode == Mode::Live;
+    }
+}
+
+fn live_controls(
+    ui: &mut egui::Ui,
+    clock: &mut SceneClock,
+    forecast: Option<&Forecast>,
+    current: &CurrentWeather,
+) {
+    if let Some((start, end)) = forecast.and_then(|f| Some((f.start()?, f.end()?))) {
+        let (start, end) = (start.unix_seconds() as f64, end.unix_seconds() as f64);
+        let mut t = clock.unix_seconds().clamp(start, end);
+        let slider = egui::Slider::new(&mut t, start..=end)
+            .show_value(false)
+            .step_by(600.0)
+            .text("forecast time");
+        if ui.add(slider).changed() {
+            clock.set_unix_seconds(t);
+        }
+    } else {
+        ui.label("loading the forecast…");
+    }
+    ui.horizontal(|ui| {
+        if ui.button("now").clicked() {
+            clock.mode = ClockMode::WallClock;
+        }
+        let running = clock.mode == ClockMode::WallClock || !clock.paused;
+        if ui.button(if running { "pause" } else { "play" }).clicked() {
+            let t = clock.unix_seconds();
+            clock.set_unix_seconds(t);
+            clock.paused = running;
+        }
+        for speed in CLOCK_SPEEDS {
+            if ui
+                .selectable_label(clock.speed == speed, format!("{speed}x"))
+                .clicked()
+            {
+                clock.speed = speed;
+            }
+        }
+        if clock.mode == ClockMode::WallClock {
+            ui.label("live: the wall clock");
+        }
+    });
+    for place in current.near.iter().chain(current.far.iter().flatten()) {
+        ui.label(format!(
+            "{}: {}",
+            place.place.name,
+            weather_label(&place.state)
+        ));
+    }
+}
+
+fn play_controls(
+    ui: &mut egui::Ui,
+    play: &mut PlayWeather,
+    clock: &mut SceneClock,
+    forecast: Option<&Forecast>,
+) {
+    ui.add(egui::Slider::new(&mut play.low_cover, 0.0..=1.0).text("low cover"));
+    ui.add(egui::Slider::new(&mut play.mid_cover, 0.0..=1.0).text("mid cover"));
+    ui.add(egui::Slider::new(&mut play.high_cover, 0.0..=1.0).text("high cover"));
+    ui.add(
+        egui::Slider::new(&mut play.precipitation_mm_per_h, 0.0..=20.0).text("precipitation, mm/h"),
+    );
+    ui.checkbox(&mut play.showers, "as showers (cumulonimbus)");
+    ui.add(egui::Slider::new(&mut play.wind_speed_m_s, 0.0..=30.0).text("wind, m/s"));
+    ui.add(egui::Slider::new(&mut play.wind_from_deg, 0.0..=360.0).text("wind from, degrees"));
+    // Time of day in the forecast's local time, on the scene's current date.
+    let offset = forecast.map_or(0.0, |f| f64::from(f.utc_offset_s));
+    let local = clock.unix_seconds() + offset;
+    let midnight = local - local.rem_euclid(86_400.0);
+    let mut hours = (local - midnight) / 3600.0;
+    let slider = egui::Slider::new(&mut hours, 0.0..=23.99)
+        .step_by(0.25)
+        .text("time of day, h");
+    if ui.add(slider).changed() {
+        clock.set_unix_seconds(midnight + hours * 3600.0 - offset);
+    }
+    ui.horizontal(|ui| {
+        let running = clock.mode == ClockMode::WallClock || !clock.paused;
+        if ui.button(if running { "pause" } else { "play" }).clicked() {
+            let t = clock.unix_seconds();
+            clock.set_unix_seconds(t);
+            clock.paused = running;
+        }
+        ui.label(clock_label(clock));
+    });
+}
+
+/// In play mode, writes the sliders' weather onto the layers through the same mapping the
+/// forecasts go through, so a slider value looks like that forecast value would.
+fn drive_play_layers(
+    panel: Res<PanelState>,
+    clock: Res<SceneClock>,
+    mapping: Option<Res<WeatherMapping>>,
+    mut layers: Query<(&LayerSlot, &mut CloudLayer)>,
+) {
+    if panel.mode != Mode::Play {
+        return;
+    }
+    let rules = mapping.map_or_else(WeatherMapping::default, |m| *m);
+    let mapped = rules.map(&panel.play.to_state(clock.instant()), BERN_GROUND_M);
+    for (slot, mut layer) in &mut layers {
+        // `apply` leaves layers that are not weather-driven alone: map a driven copy.
+        let mut updated = CloudLayer {
+            weather_driven: true,
+            ..layer.clone()
+        };
+        mapped.apply(*slot, &mut updated);
+        updated.weather_driven = false;
+        if updated != *layer {
+            *layer = updated;
+        }
+    }
+}
+
+/// Every `CloudLayer` and the camera's `VolumetricClouds`, editable.
+fn inspector_window(world: &mut World) {
+    let Ok(context) = world
+        .query_filtered::<&mut EguiContext, With<PrimaryEguiContext>>()
+        .single(world)
+    else {
+        return;
+    };
+    let mut context = context.clone();
+    let layers: Vec<(Entity, String)> = world
+        .query::<(Entity, &CloudLayer, Option<&Name>)>()
+        .iter(world)
+        .map(|(entity, layer, name)| {
+            let name = name.map_or_else(|| format!("{entity}"), |n| n.to_string());
+            (
+                entity,
+                format!("{name} ({}, {:.0}%)", layer.kind, layer.coverage * 100.0),
+            )
+        })
+        .collect();
+    let cameras: Vec<Entity> = world
+        .query_filtered::<Entity, With<VolumetricClouds>>()
+        .iter(world)
+        .collect();
+    let ctx = context.get_mut();
+    let right = ctx.content_rect().right();
+    egui::Window::new("Inspector")
+        .default_open(false)
+        .pivot(egui::Align2::RIGHT_TOP)
+        .default_pos([right - 12.0, 12.0])
+        .show(ctx, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| {
+                ui.label("Weather-driven layers are rewritten by the forecast; untick weather_driven to keep edits.");
+                for (entity, name) in &layers {
+                    egui::CollapsingHeader::new(name)
+                        .id_salt(entity)
+                        .show(ui, |ui| edit_component::<CloudLayer>(world, *entity, ui));
+                }
+                for camera in &cameras {
+                    egui::CollapsingHeader::new("camera: VolumetricClouds")
+                        .id_salt(camera)
+                        .show(ui, |ui| {
+                            edit_component::<VolumetricClouds>(world, *camera, ui);
+                        });
+                }
+            });
+        });
+}
+
+/// Edits one component through reflection, writing it back only when changed.
+fn edit_component<C: Component<Mutability = Mutable> + Reflect + Clone>(
+    world: &mut World,
+    entity: Entity,
+    ui: &mut egui::Ui,
+) {
+    let Some(mut value) = world.get::<C>(entity).cloned() else {
+        return;
+    };
+    if bevy_inspector::ui_for_value(&mut value, ui, world)
+        && let Some(mut component) = world.get_mut::<C>(entity)
+    {
+        *component = value;
+    }
+}
