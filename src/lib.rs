@@ -44,6 +44,7 @@ use bevy::{
     prelude::*,
 };
 
+mod clean;
 pub mod layers;
 pub mod precipitation;
 pub mod query;

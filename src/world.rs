@@ -89,22 +89,11 @@ impl CloudWorld {
     ///   phase function cannot evaluate); NaN becomes the default (0.8, −0.3).
     /// - `phase_blend`: clamped to 0–1; NaN becomes 0.2.
     pub fn sanitize(&mut self) {
-        use crate::reference::render::{MAX_DETAIL_EROSION, MAX_PHASE_G};
+        use crate::{
+            clean::{clamp_or, positive_or},
+            reference::render::{MAX_DETAIL_EROSION, MAX_PHASE_G},
+        };
         let defaults = Self::EARTH;
-        let clamp_or = |value: f32, min: f32, max: f32, default: f32| {
-            if value.is_nan() {
-                default
-            } else {
-                value.clamp(min, max)
-            }
-        };
-        let positive_or = |value: f32, default: f32| {
-            if value.is_finite() && value > 0.0 {
-                value
-            } else {
-                default
-            }
-        };
         let max_g = MAX_PHASE_G as f32;
         if !(self.planet_radius_m.is_finite() && self.planet_radius_m >= 1.0) {
             self.planet_radius_m = defaults.planet_radius_m;

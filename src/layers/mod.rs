@@ -275,14 +275,8 @@ impl CloudLayer {
     /// It does not allocate, so it can run on every layer every frame.
     pub fn sanitize(&mut self) {
         let defaults = self.kind.defaults();
-        let finite_or = |value: f32, default: f32| if value.is_finite() { value } else { default };
-        let unit = |value: f32, default: f32| {
-            if value.is_nan() {
-                default
-            } else {
-                value.clamp(0.0, 1.0)
-            }
-        };
+        use crate::clean::{clamp_or, finite_or};
+        let unit = |value: f32, nan: f32| clamp_or(value, 0.0, 1.0, nan);
         self.base_m = finite_or(self.base_m, defaults.base_m);
         self.top_m = finite_or(self.top_m, defaults.top_m);
         if self.base_m > self.top_m {

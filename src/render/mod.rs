@@ -271,26 +271,13 @@ impl VolumetricClouds {
     ///
     /// `light_steps_per_footprint` takes any value (NaN, 0 or less, or infinity: no limit).
     pub fn sanitize(&mut self) {
+        use crate::clean::{clamp_or, non_negative};
         use crate::reference::{
             haze::MAX_HAZE_STEPS,
             render::{MAX_LIGHT_STEPS, MAX_PRIMARY_STEPS, MAX_SCATTERING_OCTAVES},
             weather_map::MAX_WEATHER_MAP_SIZE,
         };
         let defaults = Self::MEDIUM;
-        let clamp_or = |value: f32, min: f32, max: f32, default: f32| {
-            if value.is_nan() {
-                default
-            } else {
-                value.clamp(min, max)
-            }
-        };
-        let non_negative = |value: f32| {
-            if value.is_finite() {
-                value.max(0.0)
-            } else {
-                0.0
-            }
-        };
 
         self.primary_steps = self.primary_steps.clamp(1, MAX_PRIMARY_STEPS);
         self.light_steps = self.light_steps.min(MAX_LIGHT_STEPS);
