@@ -208,7 +208,7 @@ fn control_window(
                 .get(&FrameTimeDiagnosticsPlugin::FPS)
                 .and_then(|fps| fps.smoothed());
             ui.label(fps.map_or("FPS: -".into(), |fps| format!("FPS: {fps:.1}")));
-            // The cloud passes time themselves ("cloud_march", "cloud_noise"); GPU times
+            // The cloud passes time themselves ("clouds" and each of its passes, "cloud_noise"); GPU times
             // appear where the device has timestamp queries.
             for diagnostic in diagnostics.iter() {
                 let path = diagnostic.path().as_str();

@@ -492,7 +492,8 @@ enum Finish<'a> {
     },
 }
 
-/// One fullscreen triangle into `attachments`.
+/// One fullscreen triangle into `attachments`, timed on the GPU as `label` (Bevy's render
+/// diagnostics, `render/clouds/LABEL/elapsed_gpu`).
 fn fullscreen_pass(
     ctx: &mut RenderContext,
     label: &'static str,
@@ -501,6 +502,9 @@ fn fullscreen_pass(
     bind_group: &BindGroup,
     view_offset: u32,
 ) {
+    let diagnostics = ctx.diagnostic_recorder();
+    let diagnostics = diagnostics.as_deref();
+    let time_span = diagnostics.time_span(ctx.command_encoder(), label);
     let mut pass = ctx
         .command_encoder()
         .begin_render_pass(&RenderPassDescriptor {
@@ -514,6 +518,8 @@ fn fullscreen_pass(
     pass.set_pipeline(pipeline);
     pass.set_bind_group(0, bind_group, &[view_offset]);
     pass.draw(0..3, 0..1);
+    drop(pass);
+    time_span.end(ctx.command_encoder());
 }
 
 /// An attachment cleared to `value` and stored.
@@ -714,14 +720,18 @@ fn march_cloud_layers(
 
     let diagnostics = ctx.diagnostic_recorder();
     let diagnostics = diagnostics.as_deref();
-    let time_span = diagnostics.time_span(ctx.command_encoder(), "cloud_march");
-    ctx.command_encoder().push_debug_group("cloud_march");
+    // The whole of a view's cloud passes, and each pass within it.
+    let time_span = diagnostics.time_span(ctx.command_encoder(), "clouds");
+    ctx.command_encoder().push_debug_group("clouds");
     if let Some(compute) = weather_map_pipeline
         .as_deref()
         .and_then(|p| p.get(&pipeline_cache))
-        && weather_map.dispatch(ctx.command_encoder(), compute)
     {
-        stats.views_with_weather_map += 1;
+        let span = diagnostics.time_span(ctx.command_encoder(), "cloud_weather_map");
+        if weather_map.dispatch(ctx.command_encoder(), compute) {
+            stats.views_with_weather_map += 1;
+        }
+        span.end(ctx.command_encoder());
     }
     let offset = view_offset.offset;
     if let (Some((shaft_target, shaft_pipeline)), Some(shaft_bind_group)) =
