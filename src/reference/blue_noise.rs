@@ -19,7 +19,7 @@
 //!
 //! The GPU reads the same values from an `R32Float` texture (`src/render/march/mod.rs` uploads
 //! [`blue_noise_map`]). WGSL twin of [`blue_noise_jitter`]: `blue_noise_jitter` in
-//! `clouds.wgsl`.
+//! `src/render/march/light.wgsl`.
 
 use std::sync::OnceLock;
 

@@ -10,13 +10,15 @@
 //! - [`render`]: the cloud ray-march — shell geometry on a curved planet, the density model,
 //!   the light march and the energy-conserving integrator — for one ray at a time, sampling the
 //!   same texel data as the GPU; also the CPU queries [`render::density_at`] and
-//!   [`render::transmittance_to_sun`]. GPU twin: `src/render/march/clouds.wgsl`.
+//!   [`render::transmittance_to_sun`]. One file per concern (parameters, textures, geometry,
+//!   density, light, the march), each the twin of one shader library in `src/render/march/`.
 //! - [`shadow`]: the cloud shadow map — the transmittance of every layer along the sun line
 //!   through a ground point, and the texel layout of the map. GPU twin:
-//!   `src/render/shadow/shadow.wgsl` and `shadow_column` in `clouds.wgsl`; and how the march
-//!   reads the map back (`ShadowMapImage`).
+//!   `src/render/march/shadow.wgsl` (whose `shadow_column` the pass
+//!   `src/render/shadow/shadow.wgsl` runs); and how the march reads the map back
+//!   (`ShadowMapImage`).
 //! - [`blue_noise`]: the tileable blue-noise map of the ray-start jitter. GPU twin:
-//!   `blue_noise_jitter` in `clouds.wgsl`, reading the same values from a texture.
+//!   `blue_noise_jitter` in `src/render/march/light.wgsl`, reading the same values from a texture.
 //! - [`haze`]: haze from the visibility, marched along the view ray with light shafts from the
 //!   shadow map, and stacked with the clouds. GPU twin: `src/render/haze/haze.wgsl`.
 //! - [`composite`]: the depth-aware upsample of images rendered at a reduced resolution (the

@@ -1,5 +1,6 @@
-//! Cloud shadows in f64: the CPU twin of `src/render/shadow/shadow.wgsl` (and of
-//! `shadow_optical_depth` in `src/render/march/clouds.wgsl`).
+//! Cloud shadows in f64: the CPU twin of `src/render/march/shadow.wgsl` (the columns of the map and
+//! reading it back) and of the shadow-map pass that runs its `shadow_column`,
+//! `src/render/shadow/shadow.wgsl`.
 //!
 //! # What a shadow-map texel holds
 //!

@@ -19,19 +19,40 @@ use crate::reference::{
     render as march_ref, shadow,
 };
 
-/// Every shader of the crate, by file name, with its source.
+/// Every shader of the crate, by path under `src/render/`, with its source.
 const SHADERS: &[(&str, &str)] = &[
-    ("clouds.wgsl", include_str!("march/clouds.wgsl")),
-    ("march.wgsl", include_str!("march/march.wgsl")),
-    ("noise.wgsl", include_str!("noise/noise.wgsl")),
-    ("haze.wgsl", include_str!("haze/haze.wgsl")),
-    ("shadow.wgsl", include_str!("shadow/shadow.wgsl")),
-    ("composite.wgsl", include_str!("composite/composite.wgsl")),
-    ("temporal.wgsl", include_str!("composite/temporal.wgsl")),
-    ("upsample.wgsl", include_str!("composite/upsample.wgsl")),
-    ("view_depth.wgsl", include_str!("composite/view_depth.wgsl")),
     (
-        "weather_map.wgsl",
+        "march/parameters.wgsl",
+        include_str!("march/parameters.wgsl"),
+    ),
+    ("march/textures.wgsl", include_str!("march/textures.wgsl")),
+    ("march/geometry.wgsl", include_str!("march/geometry.wgsl")),
+    ("march/density.wgsl", include_str!("march/density.wgsl")),
+    ("march/light.wgsl", include_str!("march/light.wgsl")),
+    ("march/shadow.wgsl", include_str!("march/shadow.wgsl")),
+    ("march/clouds.wgsl", include_str!("march/clouds.wgsl")),
+    ("march/march.wgsl", include_str!("march/march.wgsl")),
+    ("noise/noise.wgsl", include_str!("noise/noise.wgsl")),
+    ("haze/haze.wgsl", include_str!("haze/haze.wgsl")),
+    ("shadow/shadow.wgsl", include_str!("shadow/shadow.wgsl")),
+    (
+        "composite/composite.wgsl",
+        include_str!("composite/composite.wgsl"),
+    ),
+    (
+        "composite/temporal.wgsl",
+        include_str!("composite/temporal.wgsl"),
+    ),
+    (
+        "composite/upsample.wgsl",
+        include_str!("composite/upsample.wgsl"),
+    ),
+    (
+        "composite/view_depth.wgsl",
+        include_str!("composite/view_depth.wgsl"),
+    ),
+    (
+        "weather_map/weather_map.wgsl",
         include_str!("weather_map/weather_map.wgsl"),
     ),
 ];
@@ -274,14 +295,14 @@ fn is_padding(field: &str) -> bool {
 fn every_uniform_layout_matches_its_rust_struct() {
     let layouts: [(&str, &str, &str, &str, u64); 8] = [
         (
-            include_str!("march/clouds.wgsl"),
+            include_str!("march/parameters.wgsl"),
             "CloudUniforms",
             include_str!("view.rs"),
             "GpuCloudUniforms",
             GpuCloudUniforms::min_size().get(),
         ),
         (
-            include_str!("march/clouds.wgsl"),
+            include_str!("march/parameters.wgsl"),
             "CloudLayerGpu",
             include_str!("view.rs"),
             "GpuCloudLayer",

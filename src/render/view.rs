@@ -279,7 +279,7 @@ fn march_far_coverage(march: &mut MarchLayer, layer: &CloudLayer, camera: DVec3)
     march.far_count = count;
 }
 
-/// Per-view uniforms, laid out as `CloudUniforms` in `clouds.wgsl` (240 bytes).
+/// Per-view uniforms, laid out as `CloudUniforms` in `parameters.wgsl` (240 bytes).
 #[derive(ShaderType, Clone, Debug, Default)]
 pub(crate) struct GpuCloudUniforms {
     planet_radius_m: f32,
@@ -398,7 +398,7 @@ impl GpuCloudUniforms {
     }
 }
 
-/// One layer, laid out as `CloudLayerGpu` in `clouds.wgsl` (208 bytes).
+/// One layer, laid out as `CloudLayerGpu` in `parameters.wgsl` (208 bytes).
 #[derive(ShaderType, Clone, Debug, Default)]
 pub(crate) struct GpuCloudLayer {
     base_m: f32,

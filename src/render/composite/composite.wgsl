@@ -6,7 +6,7 @@
 // Also the geometry on the curved planet that the march, the haze and the upsample share: the
 // sphere intersection, the ground and where a view ray ends.
 // CPU twin: `src/reference/composite.rs` (same names; its module docs explain the weights); the
-// geometry's is in `src/reference/render.rs`, `ray_end`'s in `composite.rs`.
+// geometry's is in `src/reference/render/geometry.rs`, `ray_end`'s in `composite.rs`.
 // Rust side: `src/render/composite/mod.rs`.
 
 // The distance a ray that meets no geometry (the sky) is stopped at, m. Rust: `FAR_AWAY`.

@@ -1,15 +1,15 @@
 #define_import_path bevy_cloudscape::haze
 
 // Haze and light shafts: the air along the view ray, lit by the sun through the cloud shadow map.
-// A shader library imported by `march.wgsl`, which binds @binding(8) (and the clouds library's
-// shadow map at @binding(9)).
+// A shader library imported by `march.wgsl`, which binds @binding(8) (and the shadow map of
+// `textures.wgsl` at @binding(9)).
 // CPU twin: `src/reference/haze.rs` (same names; its module docs give the model and sources).
 // Rust side: `src/render/haze/mod.rs`.
 
-#import bevy_cloudscape::clouds::{
-    clouds, altitude_along_ray, henyey_greenstein, mean_step_transmittance, shadow_map_uv,
-    shadow_map_covers, sample_shadow_map,
-}
+#import bevy_cloudscape::cloud_parameters::clouds
+#import bevy_cloudscape::cloud_geometry::altitude_along_ray
+#import bevy_cloudscape::cloud_light::{henyey_greenstein, mean_step_transmittance}
+#import bevy_cloudscape::cloud_shadow::{shadow_map_uv, shadow_map_covers, sample_shadow_map}
 #import bevy_cloudscape::composite::{intersect_altitude_sphere, ground_distance}
 
 // 36 bytes. Mirror in Rust: `GpuHazeUniforms` (`HazeSettings` is the f64 source).
@@ -33,7 +33,8 @@ struct HazeUniforms {
     shaft_steps: u32,
 }
 
-// The cloud shadow map and its frame are the clouds library's (binding 9, `clouds.shadow_map_*`).
+// The cloud shadow map and its frame are the march's (binding 9 of `textures.wgsl`,
+// `clouds.shadow_map_*`).
 @group(0) @binding(8) var<uniform> haze: HazeUniforms;
 
 // Rust: the constants of the same names in reference/haze.rs.

@@ -1,6 +1,7 @@
 // Entry shader of the cloud march: one fullscreen triangle per view. It builds each pixel's view
 // ray, ends it at scene geometry from the depth prepass, and calls `march_clouds` from the
-// `bevy_cloudscape::clouds` library (bindings 2-7, 9 and 10 live there) and `march_haze` from
+// `bevy_cloudscape::clouds` library (bindings 2-7, 9, 10 and 12 live in the libraries it imports,
+// `parameters.wgsl` and `textures.wgsl`) and `march_haze` from
 // `bevy_cloudscape::haze` (binding 8). The output (L, T) is blended as
 // `scene * T + L` by the pipeline's blend state. With LOW_RES it runs at a reduced resolution
 // into its own targets instead, and `composite/upsample.wgsl` composites.
@@ -12,7 +13,9 @@
 
 #import bevy_cloudscape::view_depth::{view, depth_prepass}
 #import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
-#import bevy_cloudscape::clouds::{clouds, march_clouds, ray_start_jitter}
+#import bevy_cloudscape::cloud_parameters::clouds
+#import bevy_cloudscape::cloud_light::ray_start_jitter
+#import bevy_cloudscape::clouds::march_clouds
 #import bevy_cloudscape::haze::{march_haze, composite_haze, shaft_factors, haze}
 #import bevy_cloudscape::composite::{
     footprint, footprint_texel, upsample_weights, uv_to_ndc, view_direction, surface_distance,

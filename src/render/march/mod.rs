@@ -120,6 +120,12 @@ impl Plugin for CloudMarchPlugin {
         if app.get_sub_app(RenderApp).is_none() {
             return;
         }
+        load_shader_library!(app, "parameters.wgsl");
+        load_shader_library!(app, "textures.wgsl");
+        load_shader_library!(app, "geometry.wgsl");
+        load_shader_library!(app, "density.wgsl");
+        load_shader_library!(app, "light.wgsl");
+        load_shader_library!(app, "shadow.wgsl");
         load_shader_library!(app, "clouds.wgsl");
         load_haze_shader(app);
         load_composite_shaders(app);

@@ -4,7 +4,7 @@
 // Bevy's `DirectionalLightTexture` projects with, so the map lights every `StandardMaterial`
 // directly. Rust side: `src/render/shadow/mod.rs`; CPU twin: `src/reference/shadow.rs`.
 
-#import bevy_cloudscape::clouds::shadow_column
+#import bevy_cloudscape::cloud_shadow::shadow_column
 
 // 80 bytes. Mirror in Rust: `GpuShadowUniforms`.
 struct ShadowUniforms {

@@ -4,7 +4,7 @@
 //! # What it caches
 //!
 //! The density model reads a layer's local coverage `κ` as the bilinear filter of four weather
-//! texels' values (`weather_coverage` in `clouds.wgsl`). Each value needs the layer's coverage at
+//! texels' values (`weather_coverage` in `density.wgsl`). Each value needs the layer's coverage at
 //! the texel (the blend toward far places) and the coverage remap of the weather noise
 //! ([`weather_texel_coverage`](crate::reference::render::weather_texel_coverage)). A compute
 //! pass (`weather_map.wgsl`) writes them once per frame for a square of
@@ -92,8 +92,8 @@ pub(crate) fn init_cloud_weather_map_pipeline(
     asset_server: Res<AssetServer>,
     pipeline_cache: Res<PipelineCache>,
 ) {
-    // The bindings `weather_map.wgsl` declares, with the numbers `clouds.wgsl` gives the layers
-    // (3) and the weather noise (6).
+    // The bindings `weather_map.wgsl` declares, with the numbers `parameters.wgsl` gives the
+    // layers (3) and `textures.wgsl` the weather noise (6).
     let layout = BindGroupLayoutDescriptor::new(
         "cloud_weather_map_layout",
         &BindGroupLayoutEntries::with_indices(

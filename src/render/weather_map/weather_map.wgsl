@@ -2,7 +2,8 @@
 // slice per layer, which the march reads instead of recomputing the coverage at every sample.
 // Rust side: `src/render/weather_map/mod.rs`; CPU twin: `src/reference/weather_map.rs`.
 
-#import bevy_cloudscape::clouds::{cloud_layers, weather_texel_coverage}
+#import bevy_cloudscape::cloud_parameters::cloud_layers
+#import bevy_cloudscape::cloud_density::weather_texel_coverage
 
 // 16 bytes. Mirror in Rust: `GpuWeatherMapUniforms`.
 struct WeatherMapUniforms {

@@ -1,0 +1,530 @@
+//! The march of one view ray in f64: the intervals where it crosses the layers, in steps that grow
+//! with distance, with Schneider 2015's two-level stepping, dense steps marched again in thin parts
+//! and Hillaire 2016's energy-conserving integral across each step. WGSL twin:
+//! `src/render/march/clouds.wgsl`, the library whose `march_clouds` the entry shader
+//! `march.wgsl` calls.
+
+#[cfg(doc)]
+use super::ray_start_jitter;
+use super::{
+    CloudTextures, LIGHT_SAMPLE_OFFSET, MarchLayer, MarchSettings, SHADOW_MAP_NEAR_STEPS,
+    SHADOW_MAP_NEAR_TEXELS, add, altitude_along_ray, dot, ground_distance, horizontal_axes,
+    is_positive, layer_density, lerp, mean_step_transmittance, multiple_scattering,
+    next_cloud_interval, point_mu_sun, saturate, scale, scattering_albedo, step_warp,
+    sun_optical_depth, total_extinction,
+};
+use crate::reference::shadow::ShadowMapImage;
+
+/// Most primary steps per interval; larger [`MarchSettings::primary_steps`] are clamped.
+pub const MAX_PRIMARY_STEPS: u32 = 1024;
+
+/// Sub-steps covered by one cheap, base-only sample while the march looks for cloud (the long
+/// stride of Schneider 2015's two-level stepping, Pérez Martín 2022 "Optimization": "Dynamic Steps with
+/// Density").
+pub const CHEAP_STRIDE: u32 = 4;
+
+/// Consecutive empty full-detail samples after which the march goes back to cheap strides.
+pub const EMPTY_STEPS_TO_CHEAP: u32 = 4;
+
+/// Largest optical thickness one primary step integrates from a single sample: a denser step
+/// is marched again in parts this thick, from the cloud's edge (see the march's `step`).
+pub const MAX_STEP_OPTICAL_DEPTH: f64 = 1.0;
+
+/// Most cloudy parts a dense primary step is marched in; the last reaches the step's end.
+/// Empty parts do not count (see [`MAX_PARTS`]).
+pub const MAX_SUBSTEPS: u32 = 8;
+
+/// Most parts, cloudy or empty, a dense primary step is marched in.
+pub const MAX_PARTS: u32 = 32;
+
+/// A primary step thinner than this (optical thickness at its sample) counts as clear for the
+/// edge search of the dense step after it.
+pub const CLEAR_STEP_OPTICAL_DEPTH: f64 = 0.1;
+
+/// Weight of the thin-parts march of a dense primary step of optical thickness `x` (against
+/// one sample for the whole step): 0 up to [`MAX_STEP_OPTICAL_DEPTH`], 1 from twice that, and
+/// linear between. WGSL twin: `dense_step_weight`.
+pub fn dense_step_weight(x: f64) -> f64 {
+    saturate(x / MAX_STEP_OPTICAL_DEPTH - 1.0)
+}
+
+/// Bisections that locate a cloud's edge between the last clear point and a dense step's
+/// sample: the edge is found to 1/64 of that span.
+pub const EDGE_SEARCH_STEPS: u32 = 6;
+
+/// Extinction (1/m), scattering (1/m) and the ambient source (scattering × sky radiance, RGB)
+/// of the medium at one point.
+#[derive(Clone, Copy, Debug, Default)]
+struct Medium {
+    extinction: f64,
+    scattering: f64,
+    ambient: [f64; 3],
+}
+
+/// What a ray sees: in-scattered radiance and view transmittance, composited as
+/// `scene · transmittance + radiance`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MarchResult {
+    /// Radiance scattered toward the camera, RGB, in the units of
+    /// [`MarchSettings::sun_illuminance`] per steradian, before exposure.
+    pub radiance: [f64; 3],
+    /// Fraction of the light behind the clouds that reaches the camera, 0–1.
+    pub transmittance: f64,
+    /// Where along the ray the medium hides what is behind it, metres: the mean distance of the
+    /// steps weighted by the opacity each adds (`T_before − T_after`); infinity when the ray met
+    /// no medium. The haze in front of this distance veils the clouds and the haze behind it is
+    /// veiled by them ([`crate::reference::haze::composite`]).
+    pub distance_m: f64,
+}
+
+impl MarchResult {
+    /// Empty sky: no radiance, transmittance 1.
+    pub const CLEAR: Self = Self {
+        radiance: [0.0; 3],
+        transmittance: 1.0,
+        distance_m: f64::INFINITY,
+    };
+}
+
+/// Primary steps across an interval `span_m` metres long: [`MarchSettings::primary_steps`]
+/// (clamped to `1..=MAX_PRIMARY_STEPS`), but no more than one per
+/// [`MarchSettings::min_step_m`] (plus one). WGSL twin: `interval_steps`.
+pub fn interval_steps(settings: &MarchSettings, span_m: f64) -> u32 {
+    let steps = settings.primary_steps.clamp(1, MAX_PRIMARY_STEPS);
+    if !is_positive(settings.min_step_m) || !is_positive(span_m) {
+        return steps;
+    }
+    let fit = (span_m / settings.min_step_m).min(f64::from(MAX_PRIMARY_STEPS)) as f32;
+    steps.min(fit as u32 + 1)
+}
+
+/// One ray's state and constants, shared by the steps of [`march_clouds`].
+#[derive(Clone)]
+struct Ray<'a> {
+    textures: &'a CloudTextures,
+    /// The cloud shadow map, for far samples' sun ([`MarchSettings::sun_from_shadow_map_m`]).
+    shadow: Option<&'a ShadowMapImage>,
+    settings: &'a MarchSettings,
+    layers: &'a [MarchLayer],
+    camera_altitude_m: f64,
+    up: [f64; 3],
+    mu: f64,
+    direction: [f64; 3],
+    horizontal_direction: [f64; 2],
+    /// Cosine of the angle between the view ray and the sun, for the phase function.
+    cos_sun: f64,
+    sun_on: bool,
+    jitter: f64,
+    /// Optical depth from the camera so far: summed, not multiplied into the transmittance,
+    /// so thin media keep their precision (a product of many `e^(−x)` drifts in f32).
+    optical_depth: f64,
+    /// `e^(−optical_depth)`.
+    transmittance: f64,
+    radiance: [f64; 3],
+    /// The last cloudy step's source over its extinction, `S / σt`: the radiance a medium like
+    /// it would add beyond the point where the march stops early (see [`Ray::march_interval`]).
+    tail: [f64; 3],
+    /// Σ (opacity a step adds) · (its distance), and Σ opacity: [`MarchResult::distance_m`].
+    opacity_distance: f64,
+    opacity: f64,
+}
+
+impl Ray<'_> {
+    fn altitude(&self, t: f64) -> f64 {
+        altitude_along_ray(
+            self.camera_altitude_m,
+            self.mu,
+            t,
+            self.settings.planet_radius_m,
+        )
+    }
+
+    fn horizontal(&self, t: f64) -> [f64; 2] {
+        self.horizontal_direction.map(|c| c * t)
+    }
+
+    /// Records that the medium at distance `t` hid `opacity` more of what is behind it.
+    fn add_opacity(&mut self, opacity: f64, t: f64) {
+        self.opacity_distance += opacity * t;
+        self.opacity += opacity;
+    }
+
+    /// [`MarchResult::distance_m`] of the march so far.
+    fn distance(&self) -> f64 {
+        if is_positive(self.opacity) {
+            self.opacity_distance / self.opacity
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// Sum of the cheap (base-only) extinction of every layer at distance `t`.
+    fn cheap_extinction(&self, t: f64) -> f64 {
+        let altitude = self.altitude(t);
+        let horizontal = self.horizontal(t);
+        let footprint = t * self.settings.pixel_angle_rad;
+        total_extinction(
+            self.textures,
+            self.layers,
+            horizontal,
+            altitude,
+            footprint,
+            false,
+        )
+    }
+
+    /// The medium at distance `t`, full detail: extinction, scattering and the ambient source.
+    fn medium(&self, t: f64) -> Medium {
+        let settings = self.settings;
+        let altitude = self.altitude(t);
+        let horizontal = self.horizontal(t);
+        let footprint = t * settings.pixel_angle_rad;
+        let mut medium = Medium::default();
+        for layer in self.layers {
+            let sigma = layer_density(self.textures, layer, horizontal, altitude, footprint, true);
+            if sigma > 0.0 {
+                let sigma_s = sigma * scattering_albedo(layer);
+                // Ambient sky light grows from the base to the top of the layer (Pérez Martín 2022,
+                // "Day / Night Cycle").
+                let h = saturate((altitude - layer.base_m) / (layer.top_m - layer.base_m));
+                for (c, a) in medium.ambient.iter_mut().enumerate() {
+                    *a += sigma_s * lerp(settings.ambient_bottom[c], settings.ambient_top[c], h);
+                }
+                medium.extinction += sigma;
+                medium.scattering += sigma_s;
+            }
+        }
+        medium
+    }
+
+    /// One full-detail step over `[ta, tb]`, sampled at the jittered point; returns the optical
+    /// thickness `x` of the step at that point (0: no cloud).
+    ///
+    /// A dense step, whose optical thickness `x` at that point exceeds [`MAX_STEP_OPTICAL_DEPTH`],
+    /// is marched again in parts: the light of a dense cloud comes from its first metres, which
+    /// one long step would sample anywhere along its length. `clear_from` is where the search
+    /// for the cloud's edge starts: the sample of the step before when that step was clear or
+    /// thinner than [`CLEAR_STEP_OPTICAL_DEPTH`], or the start of the march's detail run, and
+    /// `None` inside a cloud. The edge is then searched for between it and
+    /// this step's sample by [`EDGE_SEARCH_STEPS`] bisections. From the edge (or from `ta`
+    /// inside a cloud) the march takes parts of optical thickness [`MAX_STEP_OPTICAL_DEPTH`] at
+    /// the step's sample, each sampled at its jittered point, at most [`MAX_SUBSTEPS`] (the last
+    /// reaching `tb`), until the transmittance cut-off.
+    ///
+    /// Between `x` = 1 and 2 × [`MAX_STEP_OPTICAL_DEPTH`] the result is the one-sample step and
+    /// the parts mixed in proportion ([`dense_step_weight`]), so it is continuous in the
+    /// density: a step whose density lies at the threshold gives the same light whichever side
+    /// of it rounding puts the density (the GPU's 8-bit noise against the reference's f64).
+    fn step(&mut self, ta: f64, tb: f64, clear_from: Option<f64>) -> f64 {
+        let dt = tb - ta;
+        let t = ta + self.jitter * dt;
+        let medium = self.medium(t);
+        if !is_positive(medium.extinction) {
+            return 0.0;
+        }
+        let x = medium.extinction * dt;
+        let weight = dense_step_weight(x);
+        if !is_positive(weight) {
+            self.integrate(t, dt, &medium);
+            return x;
+        }
+        // The one-sample step, kept to mix in below the full weight.
+        let one = (weight < 1.0).then(|| {
+            let mut one = self.clone();
+            one.integrate(t, dt, &medium);
+            one
+        });
+        let mut from = ta;
+        if let Some(clear) = clear_from.filter(|&c| c < t) {
+            let (mut lo, mut hi) = (clear, t);
+            for _ in 0..EDGE_SEARCH_STEPS {
+                let mid = 0.5 * (lo + hi);
+                if is_positive(self.medium(mid).extinction) {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            from = lo;
+        }
+        let length = MAX_STEP_OPTICAL_DEPTH / medium.extinction;
+        let mut cloudy = 0;
+        for i in 0..MAX_PARTS {
+            if !is_positive(tb - from) {
+                break;
+            }
+            // Empty parts (the clear gap after a wisp the search found) do not count toward
+            // MAX_SUBSTEPS; the last part reaches tb.
+            let to = if i + 1 == MAX_PARTS || cloudy + 1 >= MAX_SUBSTEPS {
+                tb
+            } else {
+                (from + length).min(tb)
+            };
+            let t = from + self.jitter * (to - from);
+            let medium = self.medium(t);
+            if is_positive(medium.extinction) {
+                self.integrate(t, to - from, &medium);
+                cloudy += 1;
+                if self.transmittance <= self.settings.transmittance_cutoff {
+                    break;
+                }
+            }
+            from = to;
+        }
+        if let Some(one) = one {
+            self.mix_with(&one, 1.0 - weight);
+        }
+        x
+    }
+
+    /// Moves what the march has gathered a fraction `amount` (0–1) of the way toward `other`'s:
+    /// optical depth, radiance, tail and opacity, linearly.
+    fn mix_with(&mut self, other: &Ray<'_>, amount: f64) {
+        self.optical_depth = lerp(self.optical_depth, other.optical_depth, amount);
+        self.transmittance = (-self.optical_depth).exp();
+        for c in 0..3 {
+            self.radiance[c] = lerp(self.radiance[c], other.radiance[c], amount);
+            self.tail[c] = lerp(self.tail[c], other.tail[c], amount);
+        }
+        self.opacity_distance = lerp(self.opacity_distance, other.opacity_distance, amount);
+        self.opacity = lerp(self.opacity, other.opacity, amount);
+    }
+
+    /// Integrates `medium`, sampled at `t`, over a step `dt` long: the light toward the sun,
+    /// the source, and the analytic integral across the step.
+    fn integrate(&mut self, t: f64, dt: f64, medium: &Medium) {
+        let settings = self.settings;
+        let Medium {
+            extinction,
+            scattering,
+            ambient,
+        } = *medium;
+        let altitude = self.altitude(t);
+        let footprint = t * settings.pixel_angle_rad;
+        let mut sun = 0.0;
+        if self.sun_on {
+            let position = scale(self.direction, t);
+            let light_march = |max_distance: f64, steps: u32| {
+                sun_optical_depth(
+                    self.textures,
+                    settings,
+                    self.layers,
+                    self.camera_altitude_m,
+                    self.up,
+                    position,
+                    altitude,
+                    footprint,
+                    max_distance,
+                    steps,
+                    LIGHT_SAMPLE_OFFSET,
+                )
+            };
+            // A far sample marches only the first texels toward the sun and reads the rest of
+            // the way from the shadow map, where the map covers it.
+            let from_map = self
+                .shadow
+                .filter(|_| t >= settings.sun_from_shadow_map_m)
+                .and_then(|map| {
+                    let near = SHADOW_MAP_NEAR_TEXELS * map.frame.texel_m();
+                    let mu_sun = point_mu_sun(
+                        settings,
+                        self.camera_altitude_m,
+                        self.up,
+                        position,
+                        altitude,
+                    );
+                    let end = add(position, scale(settings.sun_direction, near));
+                    let end_altitude =
+                        altitude_along_ray(altitude, mu_sun, near, settings.planet_radius_m);
+                    let far = map.sun_optical_depth(end, end_altitude)?;
+                    let near_depth =
+                        light_march(near, settings.light_steps.min(SHADOW_MAP_NEAR_STEPS));
+                    Some(if near_depth < 0.0 {
+                        near_depth
+                    } else {
+                        near_depth + far
+                    })
+                });
+            let optical_depth =
+                from_map.unwrap_or_else(|| light_march(f64::INFINITY, settings.light_steps));
+            if optical_depth >= 0.0 {
+                sun = multiple_scattering(settings, optical_depth, self.cos_sun);
+            }
+        }
+        // Hillaire 2016: ∫ T(x) S dx over the step = T · S · dt · (1 − e^(−σt dt)) / (σt dt).
+        let x = extinction * dt;
+        let weight = self.transmittance * dt * mean_step_transmittance(x);
+        for (((radiance, tail), illuminance), ambient) in self
+            .radiance
+            .iter_mut()
+            .zip(&mut self.tail)
+            .zip(settings.sun_illuminance)
+            .zip(ambient)
+        {
+            let source = scattering * illuminance * sun + ambient;
+            *radiance += weight * source;
+            *tail = source / extinction;
+        }
+        let before = self.transmittance;
+        self.optical_depth += x;
+        self.transmittance = (-self.optical_depth).exp();
+        self.add_opacity(before - self.transmittance, t);
+    }
+
+    /// Marches `[start, end]` in `primary_steps` steps growing with distance, with
+    /// Schneider 2015's two-level stepping; returns false once the transmittance cut-off is hit
+    /// (after adding the tail estimate and setting the transmittance to 0).
+    ///
+    /// Cheap samples, one per [`CHEAP_STRIDE`] steps, look for cloud. One that finds some sends
+    /// the march back a stride, to the start of the stride that holds the last cheap sample that
+    /// found none (but never onto a step already marched), and on in full detail at least to the
+    /// end of the stride that found cloud; after [`EMPTY_STEPS_TO_CHEAP`] empty steps it strides
+    /// again.
+    /// Backing up makes the first detail sample in a cloud lie uniformly within one step of its
+    /// edge whatever the grid's phase, so the mean over jitters has no pattern tied to the grid.
+    fn march_interval(&mut self, start: f64, end: f64) -> bool {
+        let settings = self.settings;
+        let steps = interval_steps(settings, end - start);
+        let growth = settings.step_growth.max(0.0);
+        let beta = growth * (end - start) / (1.0 + growth * start);
+        let n = f64::from(steps);
+        let boundary = |k: u32| start + (end - start) * step_warp(f64::from(k) / n, beta);
+        let cutoff = settings.transmittance_cutoff;
+        let mut k = 0;
+        let mut cheap = true;
+        let mut empty = 0;
+        // The first step not yet marched in detail: a back-up never marches a step twice.
+        let mut unmarched = 0;
+        // The end of the stride whose cheap sample found cloud: detail goes on at least to here.
+        let mut detail_until = 0;
+        // Where the next dense step's edge search starts (see `step`); `None` inside a cloud.
+        let mut clear_from = None;
+        for _ in 0..march_passes(steps) {
+            if k >= steps {
+                break;
+            }
+            if cheap {
+                let k2 = (k + CHEAP_STRIDE).min(steps);
+                let (ta, tb) = (boundary(k), boundary(k2));
+                if self.cheap_extinction(ta + self.jitter * (tb - ta)) > 0.0 {
+                    // Cloud ahead. It may begin anywhere after the last cheap sample that found
+                    // none, in the stride before this one: march from there in full detail.
+                    cheap = false;
+                    empty = 0;
+                    detail_until = k2;
+                    k = k.saturating_sub(CHEAP_STRIDE).max(unmarched);
+                    clear_from = Some(boundary(k));
+                } else {
+                    k = k2;
+                }
+                continue;
+            }
+            let (ta, tb) = (boundary(k), boundary(k + 1));
+            let x = self.step(ta, tb, clear_from);
+            // A thin step counts as clear for the next one's edge search (it may count its last
+            // part twice, less than CLEAR_STEP_OPTICAL_DEPTH): whether a wisp's density rounds
+            // to zero then changes little.
+            clear_from = (x < CLEAR_STEP_OPTICAL_DEPTH).then_some(ta + self.jitter * (tb - ta));
+            if x > 0.0 {
+                empty = 0;
+                if self.transmittance <= cutoff {
+                    // Stopping early drops the light the rest of the medium would scatter
+                    // toward the camera, up to `T · S / σt` (1 % of a uniform medium's radiance
+                    // at a cut-off of 0.01: half the contrast of a target at the visibility
+                    // distance in fog). Add it as if the medium went on like the last step, and
+                    // let nothing behind show through.
+                    for (radiance, tail) in self.radiance.iter_mut().zip(self.tail) {
+                        *radiance += self.transmittance * tail;
+                    }
+                    self.add_opacity(self.transmittance, boundary(k + 1));
+                    self.transmittance = 0.0;
+                    return false;
+                }
+            } else {
+                empty += 1;
+                if empty >= EMPTY_STEPS_TO_CHEAP && k + 1 >= detail_until {
+                    cheap = true;
+                }
+            }
+            k += 1;
+            unmarched = k;
+        }
+        true
+    }
+}
+
+/// Loop passes that always finish an interval of `steps` steps in the march (`march_interval`): a
+/// cheap pass advances a stride or switches to detail, which backs up at most one stride and then
+/// advances past the stride that found cloud; so detail passes number at most `steps` plus one
+/// stride per switch, and switches at most `steps / CHEAP_STRIDE + 1`. The WGSL twin's loop guard
+/// is the same bound.
+pub const fn march_passes(steps: u32) -> u32 {
+    4 * steps + 4 * CHEAP_STRIDE + 2
+}
+
+/// Marches one view ray through the cloud layers: the in-scattered radiance and the view
+/// transmittance, composited as `scene · T + L`.
+///
+/// The camera is at `camera_altitude_m` above the ground with local vertical `up`; `direction`
+/// is the unit view ray (world space), `t_max` the distance to the scene along it (infinity for
+/// the sky), `jitter` the offset of each sample within its step, 0–1 ([`ray_start_jitter`]).
+/// The ray visits only the intervals where it crosses active layers ([`next_cloud_interval`],
+/// stopped at the ground), each in [`MarchSettings::primary_steps`] steps that grow with
+/// distance; cheap base-only samples stride through empty space and full-detail samples light
+/// the cloud (Pérez Martín 2022, "Optimization"); the march stops once the transmittance reaches
+/// [`MarchSettings::transmittance_cutoff`]. At most `2 · layers + 1` intervals are visited.
+/// `shadow` is the cloud shadow map, read for the sun of samples beyond
+/// [`MarchSettings::sun_from_shadow_map_m`]. WGSL twin: `march_clouds`.
+#[allow(clippy::too_many_arguments)]
+pub fn march_clouds(
+    textures: &CloudTextures,
+    settings: &MarchSettings,
+    layers: &[MarchLayer],
+    camera_altitude_m: f64,
+    up: [f64; 3],
+    direction: [f64; 3],
+    t_max: f64,
+    jitter: f64,
+    shadow: Option<&ShadowMapImage>,
+) -> MarchResult {
+    let radius = settings.planet_radius_m;
+    let mu = dot(direction, up).clamp(-1.0, 1.0);
+    let t_end = t_max.min(ground_distance(camera_altitude_m, mu, radius));
+    if !is_positive(t_end) {
+        return MarchResult::CLEAR;
+    }
+    let axes = horizontal_axes(up);
+    let mut ray = Ray {
+        textures,
+        shadow,
+        settings,
+        layers,
+        camera_altitude_m,
+        up,
+        mu,
+        direction,
+        horizontal_direction: [dot(direction, axes[0]), dot(direction, axes[1])],
+        cos_sun: dot(direction, settings.sun_direction).clamp(-1.0, 1.0),
+        sun_on: settings.sun_illuminance.iter().any(|&e| e > 0.0),
+        jitter: saturate(jitter),
+        optical_depth: 0.0,
+        transmittance: 1.0,
+        radiance: [0.0; 3],
+        tail: [0.0; 3],
+        opacity_distance: 0.0,
+        opacity: 0.0,
+    };
+    let mut t = 0.0;
+    for _ in 0..=2 * layers.len() {
+        let [start, end] = next_cloud_interval(layers, radius, camera_altitude_m, mu, t, t_end);
+        if !is_positive(end - start) || !ray.march_interval(start, end) {
+            break;
+        }
+        t = end;
+    }
+    MarchResult {
+        radiance: ray.radiance,
+        transmittance: ray.transmittance,
+        distance_m: ray.distance(),
+    }
+}

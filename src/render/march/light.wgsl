@@ -1,0 +1,175 @@
+#define_import_path bevy_cloudscape::cloud_light
+
+// Light of the cloud march (Hillaire 2016; Wrenninge 2013; Pérez Martín 2022 "Cloud Lighting"):
+// the phase, multiple scattering, the light march toward the sun, the step integral and the
+// ray-start jitter. A shader library of the cloud march (see `clouds.wgsl`).
+//
+// CPU twin: `src/reference/render/light.rs`. Every function here has a Rust function of the same
+// name there (f64 there, f32 here), and each points at the other; its module docs explain the
+// lighting. `blue_noise_jitter`'s twin is in `src/reference/blue_noise.rs`.
+
+#import bevy_cloudscape::composite::{FAR_AWAY, ground_distance, intersect_altitude_sphere}
+#import bevy_cloudscape::cloud_parameters::{cloud_layers, clouds}
+#import bevy_cloudscape::cloud_textures::blue_noise
+#import bevy_cloudscape::cloud_geometry::{
+    altitude_along_ray, cloud_layer_count, horizontal_axes, layer_is_active, saturate,
+}
+#import bevy_cloudscape::cloud_density::total_extinction
+
+// Rust: the constants of the same names in reference/render/light.rs; see their docs there.
+const MAX_SCATTERING_OCTAVES: u32 = 8u;
+const MAX_LIGHT_STEPS: u32 = 64u;
+// Where each light-march step is sampled: its midpoint, whatever the view ray's jitter (an
+// average of e^-tau over offsets is biased bright). Rust: `LIGHT_SAMPLE_OFFSET`.
+const LIGHT_SAMPLE_OFFSET: f32 = 0.5;
+const LIGHT_STEP_SPAN_M: f32 = 2000.0;
+const MAX_PHASE_G: f32 = 0.999;
+const SHADOW_MAP_NEAR_TEXELS: f32 = 4.0;
+const SHADOW_MAP_NEAR_STEPS: u32 = 2u;
+// Below this optical thickness `mean_step_transmittance` uses its series (Rust: SERIES_LIMIT,
+// 1e-5 there because f64 has expm1).
+const SERIES_LIMIT: f32 = 0.1;
+const PI: f32 = 3.141592653589793;
+// Rust: the constants of the same names in reference/blue_noise.rs.
+const GOLDEN_RATIO_CONJUGATE: f32 = 0.6180339887498949;
+const JITTER_FRAME_PERIOD: u32 = 256u;
+
+// Rust: `henyey_greenstein`.
+fn henyey_greenstein(cos_theta: f32, g_in: f32) -> f32 {
+    let g = clamp(g_in, -MAX_PHASE_G, MAX_PHASE_G);
+    let denominator = max(1.0 + g * g - 2.0 * g * cos_theta, 1e-12);
+    return (1.0 - g * g) / (4.0 * PI * denominator * sqrt(denominator));
+}
+
+// Rust: `dual_lobe_phase`.
+fn dual_lobe_phase(cos_theta: f32, g_forward: f32, g_back: f32, blend_in: f32) -> f32 {
+    let blend = saturate(blend_in);
+    return (1.0 - blend) * henyey_greenstein(cos_theta, g_forward) + blend * henyey_greenstein(cos_theta, g_back);
+}
+
+// Wrenninge 2013: sum over octaves of b^i exp(-a^i tau) p(c^i g). Rust: `multiple_scattering`.
+fn multiple_scattering(optical_depth: f32, cos_theta: f32) -> f32 {
+    let octaves = clamp(clouds.octaves, 1u, MAX_SCATTERING_OCTAVES);
+    var a = 1.0;
+    var b = 1.0;
+    var c = 1.0;
+    var sum = 0.0;
+    for (var i = 0u; i < octaves; i++) {
+        let phase = dual_lobe_phase(cos_theta, c * clouds.phase_g_forward, c * clouds.phase_g_back, clouds.phase_blend);
+        sum += b * exp(-a * optical_depth) * phase;
+        a *= clouds.ms_attenuation;
+        b *= clouds.ms_contribution;
+        c *= clouds.ms_eccentricity;
+    }
+    return sum;
+}
+
+// Distance to the exit of the shells that hold the point, toward the sun; negative when the
+// ground blocks the sun. Rust: `light_march_distance`.
+fn light_march_distance(altitude_m: f32, mu_sun: f32) -> f32 {
+    let radius = clouds.planet_radius_m;
+    if ground_distance(altitude_m, mu_sun, radius) < FAR_AWAY {
+        return -1.0;
+    }
+    var distance = 0.0;
+    let count = cloud_layer_count();
+    for (var i = 0u; i < count; i++) {
+        let layer = cloud_layers[i];
+        if !layer_is_active(layer) || !(altitude_m >= layer.base_m && altitude_m <= layer.top_m) {
+            continue;
+        }
+        let outer = intersect_altitude_sphere(altitude_m, mu_sun, radius, layer.top_m);
+        let inner = intersect_altitude_sphere(altitude_m, mu_sun, radius, layer.base_m);
+        let through_base = select(FAR_AWAY, inner.x, inner.x >= 0.0);
+        distance = max(distance, min(max(outer.y, 0.0), through_base));
+    }
+    return distance;
+}
+
+// Local up at the point is (A up + p) / (R + alt); only its dot with the sun is needed.
+// Rust: `point_mu_sun`.
+fn point_mu_sun(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f32) -> f32 {
+    let radius = clouds.planet_radius_m;
+    let sun = clouds.sun_direction.xyz;
+    return clamp(((radius + h) * dot(sun, up) + dot(sun, position_m)) / (radius + altitude_m), -1.0, 1.0);
+}
+
+// Steps of a light march distance_m long from a sample whose footprint is footprint_m:
+// light_steps over LIGHT_STEP_SPAN_M or less, in proportion beyond (rounded), but those extra
+// steps no more than clouds.light_steps_per_footprint per footprint (0: no limit); at most
+// MAX_LIGHT_STEPS. Rust: `light_step_count`.
+fn light_step_count(light_steps: u32, distance_m: f32, footprint_m: f32) -> u32 {
+    var scaled = floor(f32(light_steps) * distance_m / LIGHT_STEP_SPAN_M + 0.5);
+    let per_footprint = clouds.light_steps_per_footprint;
+    if per_footprint > 0.0 && footprint_m > 0.0 {
+        scaled = min(scaled, floor(per_footprint * distance_m / footprint_m));
+    }
+    // NaN (and negatives) add no steps.
+    let extra = select(0u, u32(min(scaled, f32(MAX_LIGHT_STEPS))), scaled >= 0.0);
+    return min(max(light_steps, extra), MAX_LIGHT_STEPS);
+}
+
+// Optical depth toward the sun from `position_m` (relative to the camera at altitude h with
+// vertical up) at `altitude_m`: light_steps steps with boundaries at D (k/n)^2, each sampled
+// `offset` (0-1; the march passes LIGHT_SAMPLE_OFFSET) of the way through; negative when the
+// ground blocks the sun. Rust: `sun_optical_depth`.
+fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f32, footprint_m: f32, max_distance_m: f32, light_steps: u32, offset: f32) -> f32 {
+    let radius = clouds.planet_radius_m;
+    let sun = clouds.sun_direction.xyz;
+    let mu_sun = point_mu_sun(h, up, position_m, altitude_m);
+    let full_distance = light_march_distance(altitude_m, mu_sun);
+    if full_distance < 0.0 {
+        return -1.0;
+    }
+    let distance = min(full_distance, max_distance_m);
+    let steps = light_step_count(light_steps, distance, footprint_m);
+    if steps == 0u || distance == 0.0 {
+        return 0.0;
+    }
+    let axes = horizontal_axes(up);
+    let n = f32(steps);
+    var optical_depth = 0.0;
+    for (var k = 0u; k < steps; k++) {
+        let u0 = f32(k) / n;
+        let u1 = f32(k + 1u) / n;
+        let s0 = distance * u0 * u0;
+        let s1 = distance * u1 * u1;
+        let ds = s1 - s0;
+        let s = s0 + offset * ds;
+        let point = position_m + sun * s;
+        let altitude = altitude_along_ray(altitude_m, mu_sun, s, radius);
+        let horizontal = vec2<f32>(dot(point, axes.x), dot(point, axes.z));
+        optical_depth += total_extinction(horizontal, altitude, max(footprint_m, ds), true) * ds;
+    }
+    return optical_depth;
+}
+
+// (1 - exp(-x)) / x, the mean transmittance across a step of optical thickness x: Hillaire
+// 2016's energy-conserving step integral is S dt f(x). A series below SERIES_LIMIT (no 0/0 at
+// sigma = 0, no lost digits as x -> 0), 1/x for large x. Rust: `mean_step_transmittance`.
+fn mean_step_transmittance(x_in: f32) -> f32 {
+    let x = max(x_in, 0.0);
+    if x < SERIES_LIMIT {
+        return 1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x / 120.0)));
+    }
+    return (1.0 - exp(-x)) / x;
+}
+
+// fract(map[pixel mod size] + 0.618... * (frame mod 256)): the blue-noise map (an R32Float
+// texture of the values `reference::blue_noise::blue_noise_map` makes) animated per frame.
+// Rust: `blue_noise_jitter`.
+fn blue_noise_jitter(pixel: vec2<f32>, frame: u32) -> f32 {
+    let size = vec2<i32>(textureDimensions(blue_noise));
+    let texel = ((vec2<i32>(floor(pixel)) % size) + size) % size;
+    let sum = textureLoad(blue_noise, texel, 0).r + GOLDEN_RATIO_CONJUGATE * f32(frame % JITTER_FRAME_PERIOD);
+    return sum - floor(sum);
+}
+
+// Sample offset within each step: blue noise when jitter is on, the midpoint 0.5 when off.
+// Rust: `ray_start_jitter`.
+fn ray_start_jitter(pixel: vec2<f32>) -> f32 {
+    if clouds.jitter != 0u {
+        return blue_noise_jitter(pixel, clouds.frame_index);
+    }
+    return 0.5;
+}
