@@ -10,6 +10,8 @@ pub mod scenes;
 
 use std::path::PathBuf;
 
+use bevy_cloudscape::render::VolumetricClouds;
+
 use bevy::{
     asset::RenderAssetUsages,
     camera::{Exposure, RenderTarget},
@@ -49,7 +51,8 @@ pub struct CommonArgs {
     /// Where the headless frame goes [default: EXAMPLE.png].
     #[arg(long, value_name = "PATH.png")]
     pub out: Option<PathBuf>,
-    /// Frames to run before the headless capture (pipelines and atmosphere LUTs need a few).
+    /// Frames to run before the headless capture, at least (pipelines and atmosphere LUTs need
+    /// a few; the capture also waits until the clouds' temporal accumulation has converged).
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..))]
     pub frames: u32,
     /// Headless image width, pixels.
@@ -203,20 +206,37 @@ fn redirect_camera_to_image(
     commands.insert_resource(CaptureTarget(target));
 }
 
+/// Frames the clouds' temporal accumulation needs before a capture shows a converged image: a
+/// full cycle of the temporal upsampling's `k²` sample positions, then until the first frame's
+/// weight in the running average is under 1 %. 0 without accumulation.
+fn accumulation_frames(clouds: &VolumetricClouds) -> u32 {
+    let Some(blend) = clouds.effective_temporal_blend() else {
+        return 0;
+    };
+    let k = (1.0 / clouds.sanitized().resolution_scale).round() as u32;
+    let settle = (0.01_f32.ln() / (1.0 - blend).ln()).ceil() as u32;
+    k * k + settle
+}
+
 fn capture_after_frames(
     mut commands: Commands,
     args: Res<ExampleArgs>,
     shots: Res<HeadlessShots>,
     mut progress: ResMut<HeadlessProgress>,
     target: Res<CaptureTarget>,
+    clouds: Query<&VolumetricClouds, With<MainCamera>>,
 ) {
     let count = shots.count.max(1);
     if !progress.ready || progress.shot >= count {
         return;
     }
     progress.frames += 1;
+    // The first image waits for the clouds to converge too (the warm-up counts toward it).
     let due = if progress.shot == 0 {
-        args.frames
+        clouds
+            .iter()
+            .map(accumulation_frames)
+            .fold(args.frames, u32::max)
     } else {
         shots.settle_frames.max(1)
     };

@@ -7,7 +7,7 @@
 // `NoiseTexture3d::sample`, the twin of the sampling here). The shadow map's and the blue noise's
 // texels come from `src/reference/shadow.rs` and `src/reference/blue_noise.rs`.
 
-// Rgba16Float with full mips: R Perlin-Worley, G/B/A Worley fBm (reference/noise.rs).
+// Rgba16Float with full mips: R Perlin-Worley, G/B/A Worley fBm (reference/noise/mod.rs).
 @group(0) @binding(4) var base_noise: texture_3d<f32>;
 // Rgba16Float with full mips: R/G/B Worley fBm, A unused.
 @group(0) @binding(5) var detail_noise: texture_3d<f32>;
