@@ -17,7 +17,7 @@
 //! | shadow | [`render::shadow`] | the cloud shadow map along the sun, applied to the sun's light on every `StandardMaterial` |
 //! | CPU queries | [`query`] | [`query::CloudQuery`]: density, "in cloud?" and sunlight at any point, for game logic |
 //! | precipitation | [`precipitation`] | rain and snow near the camera, from the layers' rain rate |
-//! | terrain | [`terrain`] | DEM readers and a terrain mesh builder (for the Bern demo and your own scenes) |
+//! | terrain | `terrain` | DEM readers and a terrain mesh builder (for the Bern demo and your own scenes; the default `terrain` feature) |
 //!
 //! Compatible with Bevy 0.19.
 //!
@@ -53,6 +53,7 @@ pub mod reference;
 pub mod render;
 pub mod scene;
 pub mod sky;
+#[cfg(feature = "terrain")]
 pub mod terrain;
 mod validation;
 pub mod weather;

@@ -20,9 +20,12 @@
 //!   compare the linear luminance of the
 //!   composite `grey · T + L` over a mid-grey background with the reference's (relative RMSE:
 //!   `sqrt(mean(Δ²)) / mean(reference)`; max: largest `|Δ|`).
-//! - `bench.png`: error (relative RMSE, vertical, log scale 10⁻⁴ to 10) against time relative
-//!   to the reference (horizontal, log scale 10⁻³ to 1), one dot per scene and preset: LOW red,
-//!   MEDIUM yellow, HIGH green, ULTRA blue; grey lines at every decade.
+//! - `bench.svg`: error (relative RMSE, vertical, log scale 10⁻⁴ to 1) against time relative
+//!   to the reference (horizontal, log scale 10⁻³ to 1), a colour per preset and a marker per
+//!   scene, with a legend.
+//! - With `--docs DIR`: `DIR/performance.md` (the tables of both CSV files and the command) and
+//!   `DIR/images/bench.svg`; `--from-csv RUN --docs DIR` writes them from a run's CSV files
+//!   (the crate's own run is in `docs/bench/`).
 //! - `images/SCENE_PRESET.png`: each render beside the reference, and a third panel with the
 //!   difference of their linear luminance, `|Δ| / mean(reference)`, white at 20 % and above.
 //! - `effects.csv`: `effect,scene,ms_with,ms_without,ratio`, the median whole-frame time with
@@ -527,15 +530,21 @@ fn write_docs(args: &Args, rows: &[Row], effects: &str) -> Result<(), String> {
     std::fs::create_dir_all(&images)
         .map_err(|e| format!("cannot create {}: {e}", images.display()))?;
     plot(rows, &images.join("bench.svg"))?;
+    // The build that measured: a debug build's CPU work per frame is slower, not its GPU's.
+    let cargo = if cfg!(debug_assertions) {
+        "cargo run --example bench --"
+    } else {
+        "cargo run --release --example bench --"
+    };
     let command = match &args.from_csv {
         Some(_) => format!(
-            "cargo run --release --example bench -- --width {} --height {} --frames {} --docs {}",
+            "{cargo} --width {} --height {} --frames {} --docs {}",
             args.width,
             args.height,
             args.frames,
             dir.display()
         ),
-        None => std::iter::once("cargo run --release --example bench --".to_owned())
+        None => std::iter::once(cargo.to_owned())
             .chain(std::env::args().skip(1))
             .collect::<Vec<_>>()
             .join(" "),

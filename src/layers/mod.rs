@@ -28,9 +28,10 @@
 //!   height".
 //! - **Weather**: [`CloudLayer::precipitation`] darkens the cloud (0–1) and
 //!   [`CloudLayer::rain_mm_per_h`] is the rain falling from it.
-//! - **Who drives it**: when [`CloudLayer::weather_driven`] is true, the weather mapping
-//!   ([`weather::mapping`](crate::weather::mapping)) rewrites the layer from the forecast. When it
-//!   is false the layer is left alone, and every value is the user's ("play" mode).
+//! - **Who drives it**: a layer with a [`LayerSlot`](crate::weather::LayerSlot) whose
+//!   [`CloudLayer::weather_driven`] is true is rewritten from the forecast by the weather mapping
+//!   ([`weather::mapping`](crate::weather::mapping)). Any other layer is left alone, and every
+//!   value is the user's ("play" mode for a slotted layer).
 //!
 //! Any number of layers may exist. A layer that [`CloudLayer::is_visible`] says is invisible
 //! (coverage 0, density 0, or no thickness) is not sent to the GPU and costs nothing.
@@ -91,8 +92,9 @@ pub use profile::{DensityProfile, ProfileInterpolation, ProfilePoint};
 /// the model.
 ///
 /// Start from [`CloudLayer::new`] for a kind's defaults, then change fields. The weather mapping
-/// ([`weather::mapping`](crate::weather::mapping)) rewrites a layer whose
-/// [`CloudLayer::weather_driven`] is true; set it to false to keep your own values.
+/// ([`weather::mapping`](crate::weather::mapping)) rewrites only layers with a
+/// [`LayerSlot`](crate::weather::LayerSlot) whose [`CloudLayer::weather_driven`] is true; a
+/// layer you spawn without a slot keeps your values.
 ///
 /// `Default` is [`CloudLayer::new`]`(`[`CloudKind::Cumulus`]`)`.
 #[derive(Component, Clone, Debug, PartialEq, Reflect)]
@@ -141,8 +143,9 @@ pub struct CloudLayer {
     pub precipitation: f32,
     /// Rain (or snow, as water) falling from the layer's base, mm/h (≥ 0). Default 0.
     pub rain_mm_per_h: f32,
-    /// Whether the weather mapping sets this layer from the forecast. When false the mapping
-    /// leaves every field alone ("play" mode). Default true.
+    /// Whether the weather mapping sets this layer from the forecast, when the layer has a
+    /// [`LayerSlot`](crate::weather::LayerSlot) (a layer without one is never touched by the
+    /// forecast). When false the mapping leaves every field alone ("play" mode). Default true.
     pub weather_driven: bool,
     /// The layer's coverage toward distant places, so the weather can change across the view
     /// (Thomann 2021 §4.4–4.5: Bern's forecast in the foreground, Solothurn's toward Solothurn).
