@@ -49,18 +49,12 @@ fn setup(
     mut commands: Commands,
     asset_server: Res<AssetServer>,
     mut media: ResMut<Assets<ScatteringMedium>>,
-    mut meshes: ResMut<Assets<Mesh>>,
-    mut materials: ResMut<Assets<StandardMaterial>>,
 ) {
     // The forecast drives every weather-driven layer; `spawn_weather_layers` makes one per slot.
     commands.insert_resource(WeatherSource::load(&asset_server, "weather/bern.json", []));
     spawn_weather_layers(&mut commands);
     commands.spawn(Atmosphere::earth(
         media.add(ScatteringMedium::earth(256, 256)),
-    ));
-    commands.spawn((
-        Mesh3d(meshes.add(Plane3d::default().mesh().size(200_000.0, 200_000.0))),
-        MeshMaterial3d(materials.add(Color::srgb(0.32, 0.42, 0.22))),
     ));
     // `Sun` aims the light from the solar position for the place and instant.
     commands.spawn((
