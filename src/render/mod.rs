@@ -307,36 +307,12 @@ impl VolumetricClouds {
 }
 
 impl VolumetricClouds {
-    /// [`VolumetricClouds::resolution_scale`] as the pass uses it: clamped to 0.25–1, and 1
-    /// when not a number.
-    #[must_use]
-    pub(crate) fn effective_resolution_scale(&self) -> f32 {
-        if self.resolution_scale.is_nan() {
-            1.0
-        } else {
-            self.resolution_scale.clamp(0.25, 1.0)
-        }
-    }
-}
-
-impl VolumetricClouds {
     #[doc(hidden)]
     /// [`VolumetricClouds::temporal_blend`] as the accumulation uses it: `None` (off) without
-    /// jitter, at 1 or more, or when not a number; otherwise clamped to 0.02–1.
+    /// jitter, at 1 or more, or when not a number; otherwise at least 0.02.
     #[must_use]
     pub fn effective_temporal_blend(&self) -> Option<f32> {
         (self.jitter && self.temporal_blend < 1.0).then(|| self.temporal_blend.max(0.02))
-    }
-
-    /// [`VolumetricClouds::light_shaft_resolution_scale`] as the pass uses it: clamped to
-    /// 0.125–1, and 0.25 when not a number.
-    #[must_use]
-    pub(crate) fn effective_light_shaft_resolution_scale(&self) -> f32 {
-        if self.light_shaft_resolution_scale.is_nan() {
-            0.25
-        } else {
-            self.light_shaft_resolution_scale.clamp(0.125, 1.0)
-        }
     }
 }
 

@@ -487,11 +487,11 @@ pub struct ExtractedCloudView {
     pub settings: MarchSettings,
     /// The visible layers.
     pub layers: Vec<MarchLayer>,
-    /// [`VolumetricClouds::effective_resolution_scale`].
+    /// [`VolumetricClouds::resolution_scale`], sanitized.
     pub resolution_scale: f32,
     /// The haze along the view's rays.
     pub haze: HazeSettings,
-    /// [`VolumetricClouds::effective_light_shaft_resolution_scale`] when the view draws light
+    /// [`VolumetricClouds::light_shaft_resolution_scale`] (sanitized) when the view draws light
     /// shafts (haze, and [`VolumetricClouds::light_shafts`] on); `None` otherwise.
     pub shaft_resolution_scale: Option<f32>,
     /// [`VolumetricClouds::effective_temporal_blend`]: the temporal accumulation's weight of
@@ -576,9 +576,10 @@ pub(crate) fn extract_cloud_views(
         entity_commands.insert(ExtractedCloudView {
             settings: march,
             layers: march_layers,
-            resolution_scale: settings.effective_resolution_scale(),
+            // `settings` is sanitized: both scales are in their documented ranges.
+            resolution_scale: settings.resolution_scale,
             shaft_resolution_scale: (haze.shafts && haze.is_active())
-                .then(|| settings.effective_light_shaft_resolution_scale()),
+                .then_some(settings.light_shaft_resolution_scale),
             temporal_blend: settings.effective_temporal_blend(),
             haze,
             camera_m: transform.translation().as_dvec3(),
@@ -587,7 +588,7 @@ pub(crate) fn extract_cloud_views(
             upsampling: TemporalUpsampling::new(
                 settings.effective_temporal_blend().is_some(),
                 camera.physical_target_size().unwrap_or(UVec2::ONE),
-                settings.effective_resolution_scale(),
+                settings.resolution_scale,
                 frame.0,
             ),
             reset_history: settings.reset_history,
