@@ -2,7 +2,8 @@
 //! converged reference, and reports the time and the error of each.
 //!
 //! ```text
-//! cargo run --release --example bench -- [--width W] [--height H] [--frames N] [--out DIR] [--scene NAME] [--reference-steps N] [--no-jitter] [--effects-only] [--error-budget]
+//! cargo run --release --example bench -- [--width W] [--height H] [--frames N] [--out DIR] [--scene NAME] [--presets LIST] [--reference-steps N] [--no-jitter] [--effects-only] [--error-budget]
+//! cargo run --release --example bench -- --time-only [--presets LIST] [--sizes WxH,...] [--layers N,...] [--set FIELD=VALUE] [--scene NAME] [--out DIR]
 //! ```
 //!
 //! Scenes: cumulus at noon, overcast stratus, sunset behind altocumulus, the camera inside a
@@ -15,8 +16,9 @@
 //!   `ms_per_frame` is the cost of the cloud pass: the median frame time with the clouds minus
 //!   the median frame time of the same view with no visible layer (the pass then does not run),
 //!   so what the engine does anyway cancels out; it includes the temporal accumulation's pass.
-//!   Presets that accumulate jittered frames are measured after 32 frames of a still view, once
-//!   the accumulation has settled (`--no-jitter` turns jitter and accumulation off). Errors
+//!   Presets that accumulate jittered frames are measured once a still view has settled: a
+//!   full cycle of the temporal upsampling's sample positions, then until the first frame
+//!   weighs under 1 % (`--no-jitter` turns jitter and accumulation off). Errors
 //!   compare the linear luminance of the
 //!   composite `grey · T + L` over a mid-grey background with the reference's (relative RMSE:
 //!   `sqrt(mean(Δ²)) / mean(reference)`; max: largest `|Δ|`).
@@ -75,7 +77,7 @@ struct Args {
     #[arg(long, default_value_t = 160, value_parser = clap::value_parser!(u32).range(1..))]
     width: u32,
     /// Image height, pixels.
-    #[arg(long, default_value_t = 90, value_parser = clap::value_parser!(u32).range(1..))]
+    #[arg(long, default_value_t = 88, value_parser = clap::value_parser!(u32).range(1..))]
     height: u32,
     /// Frames timed per measurement (the median is kept).
     #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
@@ -103,6 +105,30 @@ struct Args {
     /// and write the `--docs` files from them.
     #[arg(long, value_name = "DIR", requires = "docs")]
     from_csv: Option<PathBuf>,
+    /// Measure only these presets (comma-separated: LOW, MEDIUM, HIGH, ULTRA).
+    #[arg(long, value_delimiter = ',', value_parser = preset_name)]
+    presets: Vec<String>,
+    /// Time the presets only: no reference, no error, no effects, no images. Writes
+    /// `times.csv` (`scene,preset,width,height,layers,ms_per_frame`) and prints it.
+    #[arg(long)]
+    time_only: bool,
+    /// With `--time-only`, the numbers of layers to time each preset with (comma-separated, each
+    /// 1–16): copies of the scene's layer stacked one above the other.
+    #[arg(long, value_delimiter = ',', default_value = "1", requires = "time_only",
+          value_parser = clap::value_parser!(u32).range(1..=16))]
+    layers: Vec<u32>,
+    /// With `--time-only`, the image sizes to time each preset at (comma-separated `WxH`);
+    /// default `--width`×`--height`.
+    #[arg(long, value_delimiter = ',', requires = "time_only", value_parser = image_size)]
+    sizes: Vec<UVec2>,
+    /// Change one knob of every measured preset (`FIELD=VALUE`, a field of `VolumetricClouds`,
+    /// repeatable): what the knob costs and what it changes.
+    #[arg(long = "set", value_name = "FIELD=VALUE", value_parser = knob)]
+    knobs: Vec<(String, String)>,
+    /// Keep each scene's reference image in this folder and reuse it when it is there (named
+    /// by scene, size and reference steps): for runs that change only the presets.
+    #[arg(long, value_name = "DIR")]
+    reference_cache: Option<PathBuf>,
     /// Primary steps of the reference.
     #[arg(long, default_value_t = REFERENCE_STEPS,
           value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_PRIMARY_STEPS)))]
@@ -124,6 +150,56 @@ fn scene_name(name: &str) -> Result<String, String> {
     } else {
         Err(format!("{name:?} is not one of {names:?}"))
     }
+}
+
+/// A `--presets` value: the name of one of [`presets`].
+fn preset_name(name: &str) -> Result<String, String> {
+    let names: Vec<_> = presets().iter().map(|(n, _)| *n).collect();
+    if names.contains(&name) {
+        Ok(name.to_owned())
+    } else {
+        Err(format!("{name:?} is not one of {names:?}"))
+    }
+}
+
+/// A `--sizes` value: `WxH`.
+fn image_size(text: &str) -> Result<UVec2, String> {
+    let (w, h) = text
+        .split_once('x')
+        .ok_or_else(|| format!("{text:?} is not WxH"))?;
+    let side = |v: &str| match v.parse::<u32>() {
+        Ok(n) if n > 0 => Ok(n),
+        _ => Err(format!("{text:?}: {v:?} is not a positive width or height")),
+    };
+    Ok(UVec2::new(side(w)?, side(h)?))
+}
+
+/// A `--set` value: `FIELD=VALUE`.
+fn knob(text: &str) -> Result<(String, String), String> {
+    text.split_once('=')
+        .map(|(f, v)| (f.trim().to_owned(), v.trim().to_owned()))
+        .ok_or_else(|| format!("{text:?} is not FIELD=VALUE"))
+}
+
+/// `settings` with the `--set` knobs applied, through reflection.
+fn with_knobs(
+    mut settings: VolumetricClouds,
+    knobs: &[(String, String)],
+) -> Result<VolumetricClouds, String> {
+    use bevy::reflect::GetPath;
+    for (field, value) in knobs {
+        let bad = |e: &dyn std::fmt::Display| format!("--set {field}={value}: {e}");
+        if let Ok(v) = settings.path_mut::<f32>(field.as_str()) {
+            *v = value.parse().map_err(|e| bad(&e))?;
+        } else if let Ok(v) = settings.path_mut::<u32>(field.as_str()) {
+            *v = value.parse().map_err(|e| bad(&e))?;
+        } else if let Ok(v) = settings.path_mut::<bool>(field.as_str()) {
+            *v = value.parse().map_err(|e| bad(&e))?;
+        } else {
+            return Err(bad(&"no such f32, u32 or bool field of VolumetricClouds"));
+        }
+    }
+    Ok(settings)
 }
 
 /// Primary steps per interval of the converged reference (`--reference-steps`).
@@ -175,10 +251,6 @@ fn median_frame_time(rig: &mut CloudRig, frames: u32) -> Duration {
     times[times.len() / 2]
 }
 
-/// Frames rendered before the error is measured when the preset accumulates jittered frames
-/// (`VolumetricClouds::temporal_blend`): with a blend of 0.1 the first frame then weighs 3 %.
-const SETTLE_FRAMES: u32 = 32;
-
 /// The composite over a mid-grey background, and its linear luminance.
 const BACKGROUND: f32 = 0.25;
 
@@ -193,6 +265,7 @@ fn measure(
     scene: &Scene,
     settings: &VolumetricClouds,
     frames: u32,
+    converge: bool,
 ) -> Measured {
     let mut baseline_scene = Scene {
         settings: settings.clone(),
@@ -213,8 +286,9 @@ fn measure(
     baseline_scene.layers.clone_from(&scene.layers);
     rig.set_scene(&baseline_scene);
     // With temporal accumulation the error is that of the settled image a still view shows.
-    let settle = if settings.effective_temporal_blend().is_some() {
-        SETTLE_FRAMES
+    // Timing alone needs no converged image.
+    let settle = if converge {
+        common::accumulation_frames(settings).max(2)
     } else {
         2
     };
@@ -522,7 +596,7 @@ fn error_budget(scene: &Scene) {
 
 /// With `--docs DIR`: `DIR/performance.md` and `DIR/images/bench.svg` for `rows` and the
 /// `effects` CSV, with the command line that measured them.
-fn write_docs(args: &Args, rows: &[Row], effects: &str) -> Result<(), String> {
+fn write_docs(args: &Args, rows: &[Row], effects: &str, times: Option<&str>) -> Result<(), String> {
     let Some(dir) = &args.docs else {
         return Ok(());
     };
@@ -552,9 +626,120 @@ fn write_docs(args: &Args, rows: &[Row], effects: &str) -> Result<(), String> {
     let path = dir.join("performance.md");
     std::fs::write(
         &path,
-        performance_md(rows, effects, &command, "images/bench.svg"),
+        performance_md(rows, effects, times, &command, "images/bench.svg"),
     )
     .map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
+/// The presets `--presets` names, all of them without it.
+fn selected_presets(args: &Args) -> impl Iterator<Item = (&'static str, VolumetricClouds)> {
+    presets()
+        .into_iter()
+        .filter(|(name, _)| args.presets.is_empty() || args.presets.iter().any(|p| p == name))
+}
+
+/// The reference of `scene`: from `--reference-cache` when it holds it, measured (and stored
+/// there) otherwise. A cached file is the time in ms, then the composite, as little-endian f64
+/// and f32.
+fn cached_reference(args: &Args, rig: &mut CloudRig, scene: &Scene) -> Result<Measured, String> {
+    let settings = reference_settings(args.reference_steps);
+    let Some(dir) = &args.reference_cache else {
+        return Ok(measure(rig, scene, &settings, args.frames, true));
+    };
+    let path = dir.join(format!(
+        "{}_{}x{}_{}.bin",
+        scene.name, args.width, args.height, args.reference_steps
+    ));
+    let pixels = (args.width * args.height) as usize;
+    if let Ok(bytes) = std::fs::read(&path)
+        && bytes.len() == 8 + 12 * pixels
+    {
+        let ms = f64::from_le_bytes(bytes[..8].try_into().expect("8 bytes"));
+        let values: Vec<f32> = bytes[8..]
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes(b.try_into().expect("4 bytes")))
+            .collect();
+        let composite: Vec<[f32; 3]> = values.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        let nan_count = composite
+            .iter()
+            .filter(|p| !p.iter().all(|v| v.is_finite()))
+            .count();
+        return Ok(Measured {
+            ms,
+            composite,
+            nan_count,
+        });
+    }
+    let measured = measure(rig, scene, &settings, args.frames, true);
+    let mut bytes = measured.ms.to_le_bytes().to_vec();
+    for value in measured.composite.iter().flatten() {
+        bytes.extend_from_slice(&value.to_le_bytes());
+    }
+    std::fs::create_dir_all(dir)
+        .and_then(|()| std::fs::write(&path, bytes))
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    Ok(measured)
+}
+
+/// `--time-only`: the cloud pass's cost of each selected preset in each selected scene, at each
+/// of `--sizes` and with each of `--layers` layer counts, appended to `times.csv` (written with
+/// its header when absent).
+fn time_only(args: &Args) -> Result<(), String> {
+    let path = args.out.join("times.csv");
+    let mut csv = match std::fs::read_to_string(&path) {
+        Ok(text) if !text.trim().is_empty() => text,
+        _ => String::from("scene,preset,width,height,layers,ms_per_frame\n"),
+    };
+    let sizes = if args.sizes.is_empty() {
+        vec![args.size()]
+    } else {
+        args.sizes.clone()
+    };
+    for size in sizes {
+        let mut rig = CloudRig::new(size, Msaa::Off, default());
+        let scenes = bench_scenes()
+            .into_iter()
+            .filter(|s| args.scene.as_deref().is_none_or(|name| name == s.name));
+        for scene in scenes {
+            for &count in &args.layers {
+                let stacked = Scene {
+                    layers: stacked_layers(&scene.layers, count),
+                    ..scene.clone()
+                };
+                for (preset, settings) in selected_presets(args) {
+                    let mut settings = with_knobs(settings, &args.knobs)?;
+                    settings.jitter &= !args.no_jitter;
+                    let measured = measure(&mut rig, &stacked, &settings, args.frames, false);
+                    let line = format!(
+                        "{},{preset},{},{},{count},{:.3}",
+                        scene.name, size.x, size.y, measured.ms
+                    );
+                    eprintln!("{line}");
+                    csv.push_str(&line);
+                    csv.push('\n');
+                }
+            }
+        }
+    }
+    std::fs::write(&path, &csv).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    print!("{csv}");
+    Ok(())
+}
+
+/// `count` copies of `layers` stacked one above the other, 100 m apart.
+fn stacked_layers(layers: &[CloudLayer], count: u32) -> Vec<CloudLayer> {
+    (0..count)
+        .flat_map(|i| {
+            layers.iter().map(move |l| {
+                let lift = i as f32 * (l.top_m - l.base_m + 100.0);
+                CloudLayer {
+                    base_m: l.base_m + lift,
+                    top_m: l.top_m + lift,
+                    ..l.clone()
+                }
+            })
+        })
+        .collect()
 }
 
 fn run(args: &Args) -> Result<(), String> {
@@ -567,7 +752,13 @@ fn run(args: &Args) -> Result<(), String> {
         };
         let (csv_path, csv) = read("bench.csv")?;
         let (_, effects) = read("effects.csv")?;
-        return write_docs(args, &report::from_csv(&csv_path, &csv)?, &effects);
+        let times = read("times.csv").ok().map(|(_, text)| text);
+        return write_docs(
+            args,
+            &report::from_csv(&csv_path, &csv)?,
+            &effects,
+            times.as_deref(),
+        );
     }
     if args.error_budget {
         for scene in showcase_scenes() {
@@ -579,6 +770,9 @@ fn run(args: &Args) -> Result<(), String> {
     }
     std::fs::create_dir_all(args.out.join("images"))
         .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
+    if args.time_only {
+        return time_only(args);
+    }
     let mut rig = CloudRig::new(args.size(), Msaa::Off, default());
     if args.effects_only {
         let effects = measure_effects(&mut rig, args.frames);
@@ -593,12 +787,7 @@ fn run(args: &Args) -> Result<(), String> {
         .into_iter()
         .filter(|s| args.scene.as_deref().is_none_or(|name| name == s.name));
     for scene in scenes {
-        let reference = measure(
-            &mut rig,
-            &scene,
-            &reference_settings(args.reference_steps),
-            args.frames,
-        );
+        let reference = cached_reference(args, &mut rig, &scene)?;
         eprintln!("{}: reference {:.1} ms", scene.name, reference.ms);
         rows.push(Row {
             scene: scene.name.into(),
@@ -614,9 +803,10 @@ fn run(args: &Args) -> Result<(), String> {
         // Against a finer reference, the default one is measured too: how far it is converged.
         let default_reference = (args.reference_steps != REFERENCE_STEPS)
             .then(|| ("REFERENCE_512", reference_settings(REFERENCE_STEPS)));
-        for (preset, mut settings) in presets().into_iter().chain(default_reference) {
+        for (preset, settings) in selected_presets(args).chain(default_reference) {
+            let mut settings = with_knobs(settings, &args.knobs)?;
             settings.jitter &= !args.no_jitter;
-            let measured = measure(&mut rig, &scene, &settings, args.frames);
+            let measured = measure(&mut rig, &scene, &settings, args.frames, true);
             let (rel_rmse, max_abs) = errors(&measured.composite, &reference.composite);
             let (difference, worst_share) =
                 difference_map(&measured.composite, &reference.composite);
@@ -664,7 +854,8 @@ fn run(args: &Args) -> Result<(), String> {
         .map_err(|e| format!("cannot write {}: {e}", csv_path.display()))?;
     plot(&rows, &args.out.join("bench.svg"))?;
     print!("{csv}");
-    write_docs(args, &rows, &effects)
+    let times = std::fs::read_to_string(args.out.join("times.csv")).ok();
+    write_docs(args, &rows, &effects, times.as_deref())
 }
 
 fn main() -> ExitCode {

@@ -209,7 +209,13 @@ pub fn plot(rows: &[Row], path: &Path) -> Result<(), String> {
 
 /// `docs/performance.md` for `rows` and the `effects` CSV, measured with `command`; the plot is
 /// at `plot` (relative to the document).
-pub fn performance_md(rows: &[Row], effects: &str, command: &str, plot: &str) -> String {
+pub fn performance_md(
+    rows: &[Row],
+    effects: &str,
+    times: Option<&str>,
+    command: &str,
+    plot: &str,
+) -> String {
     let mut scenes: Vec<&str> = Vec::new();
     let mut presets: Vec<&str> = Vec::new();
     for r in rows.iter().filter(|r| !r.preset.starts_with("REFERENCE")) {
@@ -257,22 +263,40 @@ pub fn performance_md(rows: &[Row], effects: &str, command: &str, plot: &str) ->
     md.push_str(&format!(
         "\n![Speed against error of the presets]({plot})\n"
     ));
-    let mut effect_lines = effects.lines();
-    if let Some(header) = effect_lines.next() {
+    if let Some(times) = times {
+        md.push_str(
+            "\n## Cost at game resolutions\n\nThe cloud pass's cost in milliseconds per frame \
+             (`ms_per_frame`: the median frame time with the clouds minus the median without \
+             them) at each size and number of stacked layers (`times.csv`, written by \
+             `--time-only` runs; their commands are in `docs/bench/README.md`). Lavapipe: \
+             compare the rows with each other, not with a GPU's milliseconds.\n\n",
+        );
+        push_csv_table(&mut md, times);
+    }
+    if effects.lines().next().is_some() {
         md.push_str(
             "\n## What each effect costs\n\nThe median whole-frame time with each optional \
              effect over the median without it, on `cumulus_noon` with `MEDIUM` \
              (`effects.csv`).\n\n",
         );
-        let columns: Vec<&str> = header.split(',').collect();
-        md.push_str(&format!("| {} |\n", columns.join(" | ")));
-        md.push_str(&format!("|{}\n", "---|".repeat(columns.len())));
-        for line in effect_lines.filter(|l| !l.trim().is_empty()) {
-            md.push_str(&format!(
-                "| {} |\n",
-                line.split(',').collect::<Vec<_>>().join(" | ")
-            ));
-        }
+        push_csv_table(&mut md, effects);
     }
     md
+}
+
+/// `csv` (a header line, then rows) as a Markdown table.
+fn push_csv_table(md: &mut String, csv: &str) {
+    let mut lines = csv.lines().filter(|l| !l.trim().is_empty());
+    let Some(header) = lines.next() else {
+        return;
+    };
+    let columns: Vec<&str> = header.split(',').collect();
+    md.push_str(&format!("| {} |\n", columns.join(" | ")));
+    md.push_str(&format!("|{}\n", "---|".repeat(columns.len())));
+    for line in lines {
+        md.push_str(&format!(
+            "| {} |\n",
+            line.split(',').collect::<Vec<_>>().join(" | ")
+        ));
+    }
 }

@@ -209,7 +209,7 @@ fn redirect_camera_to_image(
 /// Frames the clouds' temporal accumulation needs before a capture shows a converged image: a
 /// full cycle of the temporal upsampling's `k²` sample positions, then until the first frame's
 /// weight in the running average is under 1 %. 0 without accumulation.
-fn accumulation_frames(clouds: &VolumetricClouds) -> u32 {
+pub fn accumulation_frames(clouds: &VolumetricClouds) -> u32 {
     let Some(blend) = clouds.effective_temporal_blend() else {
         return 0;
     };
