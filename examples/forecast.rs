@@ -1,5 +1,6 @@
 //! Clouds from a weather forecast: the bundled meteoblue forecast for Bern sets the cloud
-//! layers, the haze and the rain, and the sun stands where it stood over Bern at that instant.
+//! layers, the haze and the rain, and the sun stands where it stood over Bern at that instant,
+//! over fields that lie in the clouds' shadows.
 //!
 //! ```text
 //! cargo run --release --example forecast -- [--time 2021-05-03T14:00:00Z]
@@ -9,7 +10,9 @@
 mod common;
 
 use bevy::{
-    light::{Atmosphere, atmosphere::ScatteringMedium, light_consts::lux},
+    light::{
+        Atmosphere, AtmosphereEnvironmentMapLight, atmosphere::ScatteringMedium, light_consts::lux,
+    },
     prelude::*,
 };
 use bevy_cloudscape::prelude::*;
@@ -49,6 +52,8 @@ fn setup(
     mut commands: Commands,
     asset_server: Res<AssetServer>,
     mut media: ResMut<Assets<ScatteringMedium>>,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut materials: ResMut<Assets<StandardMaterial>>,
 ) {
     // The forecast drives every weather-driven layer; `spawn_weather_layers` makes one per slot.
     commands.insert_resource(WeatherSource::load(&asset_server, "weather/bern.json", []));
@@ -64,7 +69,21 @@ fn setup(
         },
         Sun::default(),
     ));
-    commands.spawn((common::sky_scene_camera(), VolumetricClouds::MEDIUM));
+    // Fields to the horizon, in the clouds' shadows.
+    commands.spawn((
+        Mesh3d(meshes.add(Plane3d::default().mesh().size(200_000.0, 200_000.0))),
+        MeshMaterial3d(materials.add(StandardMaterial {
+            base_color: Color::srgb(0.32, 0.42, 0.22),
+            perceptual_roughness: 0.9,
+            ..default()
+        })),
+    ));
+    // The cloud shadows dim only the direct sun; the sky's light still reaches shaded ground.
+    commands.spawn((
+        common::sky_scene_camera(),
+        VolumetricClouds::MEDIUM,
+        AtmosphereEnvironmentMapLight::default(),
+    ));
 }
 
 /// The headless capture waits until the forecast has loaded and set the layers.
