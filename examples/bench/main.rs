@@ -8,7 +8,7 @@
 //!
 //! Scenes: cumulus at noon, overcast stratus, sunset behind altocumulus, the camera inside a
 //! cumulus layer, and a grazing view to the horizon (`examples/common/scenes.rs`). Presets:
-//! `LOW`, `MEDIUM`, `HIGH`, `ULTRA`; the reference marches 512 steps per interval with 64 light
+//! `LOW`, `MEDIUM`, `HIGH`, `ULTRA`; the reference marches 512 steps per ray with 64 light
 //! steps, no jitter and no early exit, at full resolution.
 //!
 //! Outputs in `DIR` (default `bench/`):
@@ -611,11 +611,9 @@ fn write_docs(args: &Args, rows: &[Row], effects: &str, times: Option<&str>) -> 
         "cargo run --release --example bench --"
     };
     let command = match &args.from_csv {
-        Some(_) => format!(
-            "{cargo} --width {} --height {} --frames {} --docs {}",
-            args.width,
-            args.height,
-            args.frames,
+        Some(from) => format!(
+            "{cargo} --from-csv {} --docs {}",
+            from.display(),
             dir.display()
         ),
         None => std::iter::once(cargo.to_owned())

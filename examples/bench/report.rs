@@ -232,9 +232,10 @@ pub fn performance_md(
     let mut md = format!(
         "# Performance\n\n\
          Written by the `bench` example from its CSV files; do not edit by hand. Regenerate \
-         with\n\n```sh\n{command}\n```\n\n\
+         with\n\n```sh\n{command}\n```\n\nfrom the CSV files of a run (`docs/bench/README.md` \
+         has the commands that made the crate's own).\n\n\
          Each cell is the relative RMSE of the linear luminance against a converged reference \
-         march (512 primary and 64 light steps per interval, no jitter, no early exit, full \
+         march (512 primary steps per ray and 64 light steps, no jitter, no early exit, full \
          resolution), at the cloud pass's time as a share of the reference's, at {size}. \
          Presets that accumulate jittered frames are measured once the accumulation has \
          settled. The times are from software Vulkan (lavapipe) when no GPU is named: CPU \

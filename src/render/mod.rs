@@ -59,12 +59,14 @@ pub enum CloudQuality {
 #[reflect(Component, Default)]
 #[require(DepthPrepass, Hdr)]
 pub struct VolumetricClouds {
-    /// Steps along the view ray through each layer interval (1–1024). Default 384 (`LOW` 256,
-    /// `HIGH` 512, `ULTRA` 768).
+    /// Steps along each view ray (1–1024): a budget for the whole ray, which the intervals where
+    /// it crosses layers share in proportion to their lengths, so a ray through several layers
+    /// costs no more steps than one through a single layer. Default 192 (`LOW` 160, `HIGH` 384,
+    /// `ULTRA` 768).
     pub primary_steps: u32,
     /// Steps of the light march toward the sun from each sample (0–64; 0 = unshadowed), over
     /// a light path up to 2 km long; a longer path (a low sun's) takes proportionally more, up
-    /// to 64. Default 24 (`LOW` 20, `ULTRA` 32).
+    /// to 64. Default 14 (`LOW` 10, `HIGH` 24, `ULTRA` 32).
     pub light_steps: u32,
     /// How fast steps grow with distance from the camera, 1/m: a step at distance `d` is
     /// `1 + step_growth · d` times longer than one at the camera. 0 keeps steps even.
@@ -82,10 +84,13 @@ pub struct VolumetricClouds {
     /// not bleed over the edges of near geometry; 0.5 marches a quarter of the pixels. With the
     /// temporal accumulation on ([`VolumetricClouds::temporal_blend`]) each frame's rays go
     /// through another of the pixels each texel stands for, and a still view converges to the
-    /// full resolution ([`composite::TemporalUpsampling`]). Default 0.5 (`HIGH`, `ULTRA`: 1).
+    /// full resolution ([`composite::TemporalUpsampling`]) when the view's width and height are
+    /// multiples of the upsampling factor (`1 / resolution_scale`, rounded); otherwise some
+    /// pixels are never quite hit and stay softer. Default 0.25: a sixteenth of the rays
+    /// (`ULTRA`: 1).
     pub resolution_scale: f32,
-    /// Steps of the haze march along each view ray (1–128; [`haze`]). Default 16 (`LOW` 8,
-    /// `HIGH` 24, `ULTRA` 48). Costs nothing while [`haze::Haze`] is clear.
+    /// Steps of the haze march along each view ray (1–128; [`haze`]). Default 12 (`LOW` 8,
+    /// `HIGH` 16, `ULTRA` 48). Costs nothing while [`haze::Haze`] is clear.
     pub haze_steps: u32,
     /// Light shafts: the haze is lit through the cloud shadow map, so rays of light fall through
     /// the gaps in the clouds. A pass at
@@ -121,7 +126,7 @@ pub struct VolumetricClouds {
     /// Shortest primary step, metres: a short interval (a thin layer, a fog bank the camera
     /// looks up through) is marched in fewer than [`VolumetricClouds::primary_steps`] steps, one
     /// per `min_step_m`. Steps finer than the detail noise's texels (700 m / 32 = 22 m by
-    /// default) add little. Default 20 m (`LOW` and `HIGH` 30 m, `ULTRA` 5 m); 0 always
+    /// default) add little. Default 25 m (`LOW` 30 m, `HIGH` 20 m, `ULTRA` 5 m); 0 always
     /// marches every primary step.
     pub min_step_m: f32,
     /// Most extra light-march steps per pixel footprint. A low sun's light path through a
@@ -130,7 +135,7 @@ pub struct VolumetricClouds {
     /// times the angle of a pixel of the march, hundreds of metres far away), so light steps
     /// much shorter than that resample the same blur. Those extra steps stop at this many per
     /// footprint (never fewer than `light_steps`), which matters most at sunset, where light
-    /// paths are longest. `f32::INFINITY`, 0 or less, or NaN: no limit. Default 1 (`HIGH` 2, `ULTRA` no
+    /// paths are longest. `f32::INFINITY`, 0 or less, or NaN: no limit. Default 2 (`ULTRA` no
     /// limit).
     pub light_steps_per_footprint: f32,
     /// Side of each layer's weather map, in weather-noise texels ([`weather_map`]): the march
@@ -150,54 +155,53 @@ pub struct VolumetricClouds {
 }
 
 impl VolumetricClouds {
-    /// The cheapest: [`VolumetricClouds::MEDIUM`]'s half resolution with 256 primary and 20
+    /// The cheapest: [`VolumetricClouds::MEDIUM`]'s quarter resolution with 160 primary and 10
     /// light steps, a 30 m shortest primary step, 8 haze steps and no light shafts. Measured
     /// time and error: `docs/performance.md`.
     pub const LOW: Self = Self {
-        primary_steps: 256,
-        light_steps: 20,
+        primary_steps: 160,
+        light_steps: 10,
         haze_steps: 8,
         light_shafts: false,
         min_step_m: 30.0,
         ..Self::MEDIUM
     };
-    /// The default balance of speed and quality: half resolution with temporal upsampling, 384
-    /// primary and 24 light steps on a quarter of the rays. Each frame the rays go through
-    /// another pixel of their 2 × 2 block, and the accumulation assembles the full resolution
-    /// over four frames ([`composite::TemporalUpsampling`]). A still view converges close to a
-    /// full-resolution march; while the camera moves the clouds are softer, each pixel taking
-    /// new data only every fourth frame. It keeps all scattering octaves: they cost arithmetic
-    /// only, and dropping them darkens the clouds, most in overcast. Measured time and error:
-    /// `docs/performance.md`.
+    /// The default balance of speed and quality: a quarter of the resolution per axis with
+    /// temporal upsampling, 192 primary and 14 light steps (at most two extra light steps per
+    /// pixel footprint) on a sixteenth of the rays. Each
+    /// frame the rays go through another pixel of their 4 × 4 block, and the accumulation
+    /// assembles the full resolution over sixteen frames ([`composite::TemporalUpsampling`]). A
+    /// still view converges close to a full-resolution march; while the camera moves the clouds
+    /// are softer, each pixel taking new data only every sixteenth frame. It keeps all
+    /// scattering octaves: they cost arithmetic only, and dropping them darkens the clouds,
+    /// most in overcast. Measured time and error: `docs/performance.md`.
     pub const MEDIUM: Self = Self {
-        primary_steps: 384,
-        light_steps: 24,
+        primary_steps: 192,
+        light_steps: 14,
         step_growth: 2.0e-5,
         transmittance_cutoff: 0.01,
         multiple_scattering_octaves: 4,
         jitter: true,
-        resolution_scale: 0.5,
-        haze_steps: 16,
+        resolution_scale: 0.25,
+        haze_steps: 12,
         light_shafts: true,
         temporal_blend: 0.1,
         light_shaft_resolution_scale: 0.25,
         sun_from_shadow_map_m: f32::INFINITY,
-        min_step_m: 20.0,
-        light_steps_per_footprint: 1.0,
+        min_step_m: 25.0,
+        light_steps_per_footprint: 2.0,
         weather_map_size: crate::reference::weather_map::DEFAULT_WEATHER_MAP_SIZE,
         reset_history: false,
     };
-    /// More steps for close-ups and stills: 512 primary and 24 light steps at full resolution,
-    /// two light steps per footprint at most beyond those, a 30 m shortest primary step (a
-    /// shorter one costs most at sunset, for little). Measured time and error:
-    /// `docs/performance.md`.
+    /// More steps for close-ups and stills: [`VolumetricClouds::MEDIUM`]'s quarter resolution
+    /// with 384 primary and 24 light steps, a 20 m shortest primary step and 16 haze steps.
+    /// It costs about twice `MEDIUM`.
+    /// Measured time and error: `docs/performance.md`.
     pub const HIGH: Self = Self {
-        primary_steps: 512,
+        primary_steps: 384,
         light_steps: 24,
-        resolution_scale: 1.0,
-        haze_steps: 24,
-        min_step_m: 30.0,
-        light_steps_per_footprint: 2.0,
+        haze_steps: 16,
+        min_step_m: 20.0,
         ..Self::MEDIUM
     };
     /// Many steps: screenshots and references. 768 primary and 32 light steps, every sample's

@@ -86,11 +86,19 @@ impl MarchResult {
     };
 }
 
-/// Primary steps across an interval `span_m` metres long: [`MarchSettings::primary_steps`]
-/// (clamped to `1..=MAX_PRIMARY_STEPS`), but no more than one per
-/// [`MarchSettings::min_step_m`] (plus one). WGSL twin: `interval_steps`.
-pub fn interval_steps(settings: &MarchSettings, span_m: f64) -> u32 {
-    let steps = settings.primary_steps.clamp(1, MAX_PRIMARY_STEPS);
+/// Primary steps across an interval `span_m` metres long of a ray whose intervals add up to
+/// `total_m` metres: the interval's share of [`MarchSettings::primary_steps`] (clamped to
+/// `1..=MAX_PRIMARY_STEPS`), in proportion to its length and rounded up (all of them for the
+/// only interval), so that the steps are a budget per ray however many layers it crosses; but
+/// no more than one per [`MarchSettings::min_step_m`] (plus one). The counts are computed in f32,
+/// as on the GPU. WGSL twin: `interval_steps`.
+pub fn interval_steps(settings: &MarchSettings, span_m: f64, total_m: f64) -> u32 {
+    let budget = settings.primary_steps.clamp(1, MAX_PRIMARY_STEPS);
+    let (span, total) = (span_m as f32, total_m as f32);
+    let mut steps = budget;
+    if span > 0.0 && total > span {
+        steps = ((budget as f32 * (span / total)).ceil() as u32).clamp(1, budget);
+    }
     if !is_positive(settings.min_step_m) || !is_positive(span_m) {
         return steps;
     }
@@ -382,9 +390,9 @@ impl Ray<'_> {
     /// again.
     /// Backing up makes the first detail sample in a cloud lie uniformly within one step of its
     /// edge whatever the grid's phase, so the mean over jitters has no pattern tied to the grid.
-    fn march_interval(&mut self, start: f64, end: f64) -> bool {
+    fn march_interval(&mut self, start: f64, end: f64, total: f64) -> bool {
         let settings = self.settings;
-        let steps = interval_steps(settings, end - start);
+        let steps = interval_steps(settings, end - start, total);
         let growth = settings.step_growth.max(0.0);
         let beta = growth * (end - start) / (1.0 + growth * start);
         let n = f64::from(steps);
@@ -469,8 +477,8 @@ pub const fn march_passes(steps: u32) -> u32 {
 /// is the unit view ray (world space), `t_max` the distance to the scene along it (infinity for
 /// the sky), `jitter` the offset of each sample within its step, 0–1 ([`ray_start_jitter`]).
 /// The ray visits only the intervals where it crosses active layers ([`next_cloud_interval`],
-/// stopped at the ground), each in [`MarchSettings::primary_steps`] steps that grow with
-/// distance; cheap base-only samples stride through empty space and full-detail samples light
+/// stopped at the ground), which share [`MarchSettings::primary_steps`] in proportion to their
+/// lengths ([`interval_steps`]), in steps that grow with distance; cheap base-only samples stride through empty space and full-detail samples light
 /// the cloud (Pérez Martín 2022, "Optimization"); the march stops once the transmittance reaches
 /// [`MarchSettings::transmittance_cutoff`]. At most `2 · layers + 1` intervals are visited.
 /// `shadow` is the cloud shadow map, read for the sun of samples beyond
@@ -514,10 +522,21 @@ pub fn march_clouds(
         opacity_distance: 0.0,
         opacity: 0.0,
     };
+    // The primary steps are a budget for the whole ray, shared by its intervals.
+    let mut total = 0.0;
     let mut t = 0.0;
     for _ in 0..=2 * layers.len() {
         let [start, end] = next_cloud_interval(layers, radius, camera_altitude_m, mu, t, t_end);
-        if !is_positive(end - start) || !ray.march_interval(start, end) {
+        if !is_positive(end - start) {
+            break;
+        }
+        total += (end - start) as f32;
+        t = end;
+    }
+    let mut t = 0.0;
+    for _ in 0..=2 * layers.len() {
+        let [start, end] = next_cloud_interval(layers, radius, camera_altitude_m, mu, t, t_end);
+        if !is_positive(end - start) || !ray.march_interval(start, end, f64::from(total)) {
             break;
         }
         t = end;

@@ -258,10 +258,16 @@ fn integrate_step(ray: ptr<function, MarchRay>, t: f32, dt: f32, medium: Medium)
     add_opacity(ray, before - (*ray).transmittance, t);
 }
 
-// Primary steps across an interval span_m long: primary_steps, but no more than one per
-// min_step_m (plus one). The count is computed in f32 on both sides. Rust: `interval_steps`.
-fn interval_steps(span_m: f32) -> u32 {
-    let steps = clamp(clouds.primary_steps, 1u, MAX_PRIMARY_STEPS);
+// Primary steps across an interval span_m long of a ray whose intervals add up to total_m:
+// the interval's share of primary_steps, in proportion to its length and rounded up (all of
+// them for the only interval), but no more than one per min_step_m (plus one). The counts are
+// computed in f32 on both sides. Rust: `interval_steps`.
+fn interval_steps(span_m: f32, total_m: f32) -> u32 {
+    let budget = clamp(clouds.primary_steps, 1u, MAX_PRIMARY_STEPS);
+    var steps = budget;
+    if span_m > 0.0 && total_m > span_m {
+        steps = clamp(u32(ceil(f32(budget) * (span_m / total_m))), 1u, budget);
+    }
     if !(clouds.min_step_m > 0.0) || !(span_m > 0.0) {
         return steps;
     }
@@ -269,11 +275,11 @@ fn interval_steps(span_m: f32) -> u32 {
     return min(steps, u32(fit) + 1u);
 }
 
-// primary_steps steps over [start, end], growing with distance, with two-level stepping
+// The interval's steps (`interval_steps`) over [start, end], growing with distance, with two-level stepping
 // (Schneider 2015; Pérez Martín 2022 "Optimization"); false once the cut-off is reached.
 // Rust: `Ray::march_interval`.
-fn march_interval(ray: ptr<function, MarchRay>, start: f32, end: f32) -> bool {
-    let steps = interval_steps(end - start);
+fn march_interval(ray: ptr<function, MarchRay>, start: f32, end: f32, total: f32) -> bool {
+    let steps = interval_steps(end - start, total);
     let growth = max(clouds.step_growth, 0.0);
     let beta = growth * (end - start) / (1.0 + growth * start);
     let n = f32(steps);
@@ -340,7 +346,8 @@ fn march_interval(ray: ptr<function, MarchRay>, start: f32, end: f32) -> bool {
 // h: camera altitude above the ground (m); up: unit local vertical at the camera; direction: unit
 // view ray (world); t_max: distance to the scene along the ray (FAR_AWAY or more for the sky);
 // jitter: sample offset within each step, 0-1 (`ray_start_jitter`). Visits only the intervals
-// where the ray crosses active layers (stopped at the ground), at most 2 * layers + 1 of them.
+// where the ray crosses active layers (stopped at the ground), at most 2 * layers + 1 of them,
+// which share primary_steps in proportion to their lengths.
 // Radiance is before exposure. Rust: `march_clouds`.
 fn march_clouds(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter: f32) -> CloudMarch {
     let radius = clouds.planet_radius_m;
@@ -367,11 +374,22 @@ fn march_clouds(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter:
         0.0,
         0.0,
     );
-    var t = 0.0;
+    // The primary steps are a budget for the whole ray, shared by its intervals.
     let intervals = 2u * cloud_layer_count() + 1u;
+    var total = 0.0;
+    var t = 0.0;
     for (var i = 0u; i < intervals; i++) {
         let interval = next_cloud_interval(h, mu, t, t_end);
-        if !(interval.y - interval.x > 0.0) || !march_interval(&ray, interval.x, interval.y) {
+        if !(interval.y - interval.x > 0.0) {
+            break;
+        }
+        total += interval.y - interval.x;
+        t = interval.y;
+    }
+    t = 0.0;
+    for (var i = 0u; i < intervals; i++) {
+        let interval = next_cloud_interval(h, mu, t, t_end);
+        if !(interval.y - interval.x > 0.0) || !march_interval(&ray, interval.x, interval.y, total) {
             break;
         }
         t = interval.y;

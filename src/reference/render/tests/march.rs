@@ -255,6 +255,27 @@ fn sun_below_the_horizon_leaves_only_ambient() {
 }
 
 #[test]
+fn a_ray_through_many_layers_shares_one_step_budget() {
+    let settings = MarchSettings {
+        primary_steps: 48,
+        min_step_m: 0.0,
+        ..MarchSettings::default()
+    };
+    // Four intervals of 5 km, 5 km, 5 km and 15 km: 8, 8, 8 and 24 steps, 48 in all.
+    let spans = [5_000.0, 5_000.0, 5_000.0, 15_000.0];
+    let total: f64 = spans.iter().sum();
+    let steps: Vec<u32> = spans
+        .iter()
+        .map(|&span| interval_steps(&settings, span, total))
+        .collect();
+    assert_eq!(steps, [8, 8, 8, 24]);
+    // Sixteen equal intervals: 3 steps each, not 48 each.
+    assert_eq!(interval_steps(&settings, 1_000.0, 16_000.0), 3);
+    // A sliver still gets a step.
+    assert_eq!(interval_steps(&settings, 1.0, 1e6), 1);
+}
+
+#[test]
 fn short_intervals_get_fewer_steps() {
     let settings = MarchSettings {
         primary_steps: 48,
@@ -262,16 +283,16 @@ fn short_intervals_get_fewer_steps() {
         ..MarchSettings::default()
     };
     // 355 m of fog seen 25° up from the ground: 18 steps of 20 m, not 48 of 7 m.
-    assert_eq!(interval_steps(&settings, 355.0), 18);
-    assert_eq!(interval_steps(&settings, 5_000.0), 48);
-    assert_eq!(interval_steps(&settings, 1.0), 1);
-    assert_eq!(interval_steps(&settings, 0.0), 48);
-    assert_eq!(interval_steps(&settings, f64::INFINITY), 48);
+    assert_eq!(interval_steps(&settings, 355.0, 355.0), 18);
+    assert_eq!(interval_steps(&settings, 5_000.0, 5_000.0), 48);
+    assert_eq!(interval_steps(&settings, 1.0, 1.0), 1);
+    assert_eq!(interval_steps(&settings, 0.0, 0.0), 48);
+    assert_eq!(interval_steps(&settings, f64::INFINITY, f64::INFINITY), 48);
     let off = MarchSettings {
         min_step_m: 0.0,
         ..settings.clone()
     };
-    assert_eq!(interval_steps(&off, 355.0), 48);
+    assert_eq!(interval_steps(&off, 355.0, 355.0), 48);
     // A homogeneous slab still matches its closed form with the floor on.
     let layer = slab(0.002);
     let floored = MarchSettings {
