@@ -62,23 +62,21 @@ fn setup(
         media.add(ScatteringMedium::earth(256, 256)),
     ));
     // `Sun` aims the light from the solar position for the place and instant.
+    let light = DirectionalLight {
+        illuminance: lux::RAW_SUNLIGHT,
+        ..default()
+    };
+    commands.spawn((light, Sun::default()));
+    // Fields to the horizon. The clouds' shadows dim only the direct sun: the sky lights them.
+    let field = StandardMaterial {
+        base_color: Color::srgb(0.32, 0.42, 0.22),
+        perceptual_roughness: 0.9,
+        ..default()
+    };
     commands.spawn((
-        DirectionalLight {
-            illuminance: lux::RAW_SUNLIGHT,
-            ..default()
-        },
-        Sun::default(),
+        Mesh3d(meshes.add(Plane3d::default().mesh().size(2e5, 2e5))),
+        MeshMaterial3d(materials.add(field)),
     ));
-    // Fields to the horizon, in the clouds' shadows.
-    commands.spawn((
-        Mesh3d(meshes.add(Plane3d::default().mesh().size(200_000.0, 200_000.0))),
-        MeshMaterial3d(materials.add(StandardMaterial {
-            base_color: Color::srgb(0.32, 0.42, 0.22),
-            perceptual_roughness: 0.9,
-            ..default()
-        })),
-    ));
-    // The cloud shadows dim only the direct sun; the sky's light still reaches shaded ground.
     commands.spawn((
         common::sky_scene_camera(),
         VolumetricClouds::MEDIUM,
