@@ -191,6 +191,29 @@ pub fn upsampling_factor(full: [u32; 2], low: [u32; 2]) -> u32 {
     (ratio.round() as u32).clamp(1, MAX_UPSAMPLING_FACTOR)
 }
 
+/// The march's image with the temporal upsampling at factor `k` (> 1) for a view of `full`
+/// pixels: `⌈full / k⌉` texels per axis, each standing for exactly `k × k` pixels from the view's
+/// top left corner, so that every pixel is some texel's sample point once per cycle whatever the
+/// view's size; the last texels may reach past the view's edge. WGSL: computed on the CPU
+/// (`TemporalUpsampling::size`).
+pub fn upsampled_march_size(full: [u32; 2], factor: u32) -> [u32; 2] {
+    let k = factor.clamp(1, MAX_UPSAMPLING_FACTOR);
+    full.map(|n| n.max(1).div_ceil(k))
+}
+
+/// The march image's uv of the view's `uv` with the temporal upsampling at factor `k` (> 1) on a
+/// march image of `low` texels ([`upsampled_march_size`]) for a view of `full` pixels:
+/// `uv · full / (k · low)`, texel `t` spanning pixels `k t` to `k (t + 1)`. `uv` itself at
+/// factor 1. WGSL twin: `uv / temporal.uv_scale` in `temporal.wgsl`.
+pub fn march_uv(uv: [f64; 2], full: [u32; 2], low: [u32; 2], factor: u32) -> [f64; 2] {
+    if factor <= 1 {
+        return uv;
+    }
+    std::array::from_fn(|a| {
+        uv[a] * f64::from(full[a].max(1)) / (f64::from(factor) * f64::from(low[a].max(1)))
+    })
+}
+
 /// Where this frame's reduced-resolution rays pass through their texels with the temporal
 /// upsampling, in texels from the texel's centre (each component in `(−0.5, 0.5)`): the centre
 /// of one of the `k × k` full-resolution pixels the texel stands for (`k` =
@@ -266,8 +289,9 @@ pub fn lanczos3_weights(fraction: f64) -> [f64; 6] {
 /// How closely this frame's ray passed through the full-resolution pixel centred on `uv`:
 /// `Π max(0, 1 − |d|)` over the axes, with `d` the distance in full-resolution pixels from the
 /// pixel's centre to the sample of the texel holding it (its centre plus `offset` texels,
-/// [`sample_offset`]). 1 for the pixel the ray went through, 0 for its neighbours when the
-/// resolutions divide evenly. `full` and `low` are the two images' sizes. 1 everywhere at
+/// [`sample_offset`]), on the march image of `low` texels ([`upsampled_march_size`]) whose texels
+/// stand for `k × k` pixels each. 1 for the pixel the ray went through, 0 for its neighbours.
+/// `full` and `low` are the two images' sizes. 1 everywhere at
 /// [`upsampling_factor`] 1 (`factor`): every pixel then takes every frame, as without the
 /// upsampling. WGSL twin: the end of `temporal.wgsl`.
 pub fn hit_proximity(
@@ -282,8 +306,9 @@ pub fn hit_proximity(
     }
     (0..2)
         .map(|a| {
-            let n = f64::from(low[a].max(1));
-            let texel = (uv[a] * n).floor().clamp(0.0, n - 1.0);
+            let n = f64::from(full[a].max(1)) / f64::from(factor);
+            let last = f64::from(low[a].max(1)) - 1.0;
+            let texel = (uv[a] * n).floor().clamp(0.0, last);
             let sample = (texel + 0.5 + offset[a]) / n;
             let distance = (uv[a] - sample) * f64::from(full[a].max(1));
             (1.0 - distance.abs()).max(0.0)
@@ -589,9 +614,11 @@ mod tests {
         assert_eq!(sample_offset(4, 2), sample_offset(0, 2));
         // For each factor, each of a texel's k² pixels is hit (proximity 1) in exactly one frame
         // of the k² of a cycle, and no frame leaves a weight on another pixel.
-        for k in 1..=4_u32 {
-            let low = [5, 3];
-            let full = [5 * k, 3 * k];
+        // Also where the view's size is not a multiple of k: the march then has ⌈full / k⌉
+        // texels, the last ones reaching past the view's edge.
+        let sizes = |k: u32| [[5 * k, 3 * k], [5 * k - k / 2, 3 * k - (k - 1)]];
+        for (k, full) in (1..=4_u32).flat_map(|k| sizes(k).map(|full| (k, full))) {
+            let low = upsampled_march_size(full, k);
             for py in 0..full[1] {
                 for px in 0..full[0] {
                     let uv = [
@@ -662,7 +689,8 @@ mod tests {
                             (f64::from(px) + 0.5) / f64::from(full[0]),
                             (f64::from(py) + 0.5) / f64::from(full[1]),
                         ];
-                        let current = upsample_offset(&image, uv, FAR_AWAY, offset);
+                        let current =
+                            upsample_offset(&image, march_uv(uv, full, low, k), FAR_AWAY, offset);
                         let (cx, cy) = (px / k, py / k);
                         let (mut lo, mut hi) = (current, current);
                         for ty in cy.saturating_sub(1)..=(cy + 1).min(low[1] - 1) {

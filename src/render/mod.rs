@@ -84,10 +84,8 @@ pub struct VolumetricClouds {
     /// not bleed over the edges of near geometry; 0.5 marches a quarter of the pixels. With the
     /// temporal accumulation on ([`VolumetricClouds::temporal_blend`]) each frame's rays go
     /// through another of the pixels each texel stands for, and a still view converges to the
-    /// full resolution ([`composite::TemporalUpsampling`]) when the view's width and height are
-    /// multiples of the upsampling factor (`1 / resolution_scale`, rounded); otherwise some
-    /// pixels are never quite hit and stay softer. Default 0.25: a sixteenth of the rays
-    /// (`ULTRA`: 1).
+    /// full resolution ([`composite::TemporalUpsampling`]), whatever the view's size. Default
+    /// 0.25: a sixteenth of the rays (`ULTRA`: 1).
     pub resolution_scale: f32,
     /// Steps of the haze march along each view ray (1–128; [`haze`]). Default 12 (`LOW` 8,
     /// `HIGH` 16, `ULTRA` 48). Costs nothing while [`haze::Haze`] is clear.

@@ -17,7 +17,7 @@ use super::{
 };
 use crate::{
     layers::{CloudLayer, LayerDrift},
-    reference::composite::{sample_offset, upsampling_factor},
+    reference::composite::{sample_offset, upsampled_march_size, upsampling_factor},
     reference::{
         haze::HazeSettings,
         render::{MAX_FAR_COVERAGES, MAX_PROFILE_POINTS, MarchLayer, MarchSettings},
@@ -279,7 +279,7 @@ fn march_far_coverage(march: &mut MarchLayer, layer: &CloudLayer, camera: DVec3)
     march.far_count = count;
 }
 
-/// Per-view uniforms, laid out as `CloudUniforms` in `parameters.wgsl` (240 bytes).
+/// Per-view uniforms, laid out as `CloudUniforms` in `parameters.wgsl` (256 bytes).
 #[derive(ShaderType, Clone, Debug, Default)]
 pub(crate) struct GpuCloudUniforms {
     planet_radius_m: f32,
@@ -303,8 +303,10 @@ pub(crate) struct GpuCloudUniforms {
     shadow_map: u32,
     min_step_m: f32,
     sample_offset_uv: Vec2,
+    march_uv_scale: Vec2,
     light_steps_per_footprint: f32,
     _pad1: u32,
+    _pad2: UVec2,
     camera_up: Vec4,
     sun_direction: Vec4,
     sun_illuminance: Vec4,
@@ -366,6 +368,7 @@ impl GpuCloudUniforms {
             shadow_map: u32::from(map.is_some()),
             min_step_m: settings.min_step_m as f32,
             sample_offset_uv: Vec2::ZERO,
+            march_uv_scale: Vec2::ONE,
             // 0: no limit.
             light_steps_per_footprint: if settings.light_steps_per_footprint > 0.0
                 && settings.light_steps_per_footprint < f64::from(FAR_AWAY)
@@ -375,6 +378,7 @@ impl GpuCloudUniforms {
                 0.0
             },
             _pad1: 0,
+            _pad2: UVec2::ZERO,
             camera_up: vec4(settings.camera_up),
             sun_direction: vec4(settings.sun_direction),
             sun_illuminance: vec4(settings.sun_illuminance),
@@ -391,9 +395,11 @@ impl GpuCloudUniforms {
     }
 
     /// These uniforms with the temporal upsampling's offset of this frame's rays, in uv
-    /// ([`TemporalUpsampling::offset_uv`]).
-    pub(crate) fn with_sample_offset(mut self, offset_uv: Vec2) -> Self {
-        self.sample_offset_uv = offset_uv;
+    /// ([`TemporalUpsampling::offset_uv`]), and the screen's uv per march uv
+    /// ([`TemporalUpsampling::uv_scale`]).
+    pub(crate) fn with_upsampling(mut self, upsampling: &TemporalUpsampling) -> Self {
+        self.sample_offset_uv = upsampling.offset_uv;
+        self.march_uv_scale = upsampling.uv_scale;
         self
     }
 }
@@ -633,17 +639,24 @@ pub struct TemporalUpsampling {
     /// `k`, the [`upsampling_factor`]; 1 (no offset) without the accumulation or at full
     /// resolution.
     pub factor: u32,
+    /// The march's image, texels: `⌈size / k⌉` with the upsampling, so that each texel stands
+    /// for exactly `k × k` pixels whatever the view's size (the last row and column of texels
+    /// may reach past the view's edge); [`low_res_size`] without it.
+    pub size: UVec2,
+    /// The view's uv per march uv (`size · k / view size`, at least 1): the march's image
+    /// covers the view and the pixels past its edge. 1 without the upsampling.
+    pub uv_scale: Vec2,
     /// Where this frame's rays pass through their texels, in texels from the centre
     /// ([`sample_offset`]).
     pub offset_texels: Vec2,
-    /// The same in uv of the march's target (`offset_texels / size`).
+    /// The same in the view's uv (`offset_texels · k / view size`).
     pub offset_uv: Vec2,
 }
 
 impl TemporalUpsampling {
     /// The upsampling of frame `frame` of a view whose target is `size` pixels, marched at
-    /// `scale` into [`low_res_size`] texels (the sizes `CloudLowResTargets` get), accumulating
-    /// when `accumulates`.
+    /// `scale` (the march's image size is [`TemporalUpsampling::size`], the size
+    /// `CloudLowResTargets` get), accumulating when `accumulates`.
     pub fn new(accumulates: bool, size: UVec2, scale: f32, frame: u32) -> Self {
         let low = low_res_size(size, scale);
         let factor = if accumulates {
@@ -651,12 +664,25 @@ impl TemporalUpsampling {
         } else {
             1
         };
+        if factor == 1 {
+            return Self {
+                factor,
+                size: low,
+                uv_scale: Vec2::ONE,
+                offset_texels: Vec2::ZERO,
+                offset_uv: Vec2::ZERO,
+            };
+        }
+        let march = UVec2::from(upsampled_march_size(size.to_array(), factor));
         let [x, y] = sample_offset(frame, factor);
         let offset_texels = Vec2::new(x as f32, y as f32);
+        let pixels_per_texel = factor as f32 / size.max(UVec2::ONE).as_vec2();
         Self {
             factor,
+            size: march,
+            uv_scale: march.as_vec2() * pixels_per_texel,
             offset_texels,
-            offset_uv: offset_texels / low.as_vec2(),
+            offset_uv: offset_texels * pixels_per_texel,
         }
     }
 }
@@ -728,7 +754,7 @@ mod tests {
 
     #[test]
     fn gpu_structs_match_the_shader_layout() {
-        assert_eq!(GpuCloudUniforms::min_size().get(), 240);
+        assert_eq!(GpuCloudUniforms::min_size().get(), 256);
         assert_eq!(GpuCloudLayer::min_size().get(), 208);
     }
 

@@ -972,8 +972,12 @@ fn a_history_reset_drops_the_previous_scene() {
 /// interpolated back (the blur floor measured here on the CPU's mean image).
 #[test]
 fn temporal_upsampling_resolves_detail_finer_than_the_march() {
-    use bevy_cloudscape::reference::composite::{FAR_AWAY, LowResImage, upsample};
-    let size = UVec2::new(64, 36);
+    use bevy_cloudscape::reference::composite::{
+        FAR_AWAY, LowResImage, march_uv, upsample, upsampled_march_size,
+    };
+    // Odd on both axes: the march's last texels reach a pixel past the view's edge, and every
+    // pixel must still be sampled once per cycle.
+    let size = UVec2::new(63, 35);
     let (textures, mut rig) = small_rig(size);
     let mut scene = jittered_noon_cumulus();
     scene.settings.resolution_scale = 0.5;
@@ -981,9 +985,10 @@ fn temporal_upsampling_resolves_detail_finer_than_the_march() {
     let (single_l, _) = rig.render(3);
     // The CPU's full-resolution image, averaged over 16 frames' jitter.
     let mean_l = cpu_jitter_mean(&mut rig, &textures, 16);
-    // The blur floor: that image averaged over each texel's 2 × 2 pixels, upsampled back.
-    let low = [size.x / 2, size.y / 2];
-    let pixel = |x: u32, y: u32| mean_l[(y * size.x + x) as usize];
+    // The blur floor: that image averaged over each texel's 2 × 2 pixels (those in the view),
+    // upsampled back.
+    let low = upsampled_march_size(size.to_array(), 2);
+    let pixel = |x: u32, y: u32| mean_l[(y.min(size.y - 1) * size.x + x.min(size.x - 1)) as usize];
     let texels = LowResImage {
         size: low,
         values: (0..low[1])
@@ -1004,6 +1009,7 @@ fn temporal_upsampling_resolves_detail_finer_than_the_march() {
                 (f64::from(p % size.x) + 0.5) / f64::from(size.x),
                 (f64::from(p / size.x) + 0.5) / f64::from(size.y),
             ];
+            let uv = march_uv(uv, size.to_array(), low, 2);
             upsample(&texels, uv, FAR_AWAY).map(|v| v as f32)
         })
         .collect();

@@ -262,6 +262,8 @@ pub(crate) struct GpuTemporalUniforms {
     pub sample_offset: Vec2,
     /// [`TemporalUpsampling::factor`].
     pub upsampling_factor: u32,
+    /// [`TemporalUpsampling::uv_scale`].
+    pub uv_scale: Vec2,
 }
 
 /// Where the ground sphere is for a view, laid out as `ViewGround` in `composite.wgsl` (32
@@ -484,6 +486,7 @@ pub(crate) fn prepare_composite_targets(
                 valid: u32::from(valid.is_some()),
                 sample_offset: view.upsampling.offset_texels,
                 upsampling_factor: view.upsampling.factor,
+                uv_scale: view.upsampling.uv_scale,
             });
             uniforms.set_label(Some("cloud_temporal_uniforms"));
             uniforms.write_buffer(&device, &queue);
@@ -504,7 +507,7 @@ pub(crate) fn prepare_composite_targets(
             entity_commands.remove::<CloudHistory>();
         }
         if view.resolution_scale < 1.0 || view.temporal_blend.is_some() {
-            let size = low_res_size(full, view.resolution_scale);
+            let size = view.upsampling.size;
             let colour = texture("cloud_low_res_colour", LOW_RES_COLOUR_FORMAT, size);
             let distance = texture("cloud_low_res_distance", LOW_RES_DISTANCE_FORMAT, size);
             let settings = &view.settings;
@@ -577,5 +580,15 @@ mod tests {
         assert_eq!(up.factor, 2);
         assert_eq!(up.offset_texels, Vec2::splat(0.25));
         assert_eq!(up.offset_uv, Vec2::new(0.25 / 80.0, 0.25 / 45.0));
+        assert_eq!((up.size, up.uv_scale), (UVec2::new(80, 45), Vec2::ONE));
+        // A quarter of 90 rows is not whole: 23 texels of 4 pixels each, the last reaching two
+        // pixels past the bottom edge, so every pixel is one texel's sample point once a cycle.
+        let up = TemporalUpsampling::new(true, size, 0.25, 0);
+        assert_eq!((up.factor, up.size), (4, UVec2::new(40, 23)));
+        assert_eq!(up.uv_scale, Vec2::new(1.0, 92.0 / 90.0));
+        assert_eq!(
+            up.offset_uv,
+            up.offset_texels * Vec2::new(4.0 / 160.0, 4.0 / 90.0)
+        );
     }
 }

@@ -27,6 +27,10 @@ struct TemporalUniforms {
     // Full-resolution pixels per march texel along an axis (Rust: `upsampling_factor`); 1: the
     // march is at full resolution and every pixel takes the new frame.
     upsampling_factor: u32,
+    // The view's uv per march uv (Rust: `TemporalUpsampling::uv_scale`): with the upsampling
+    // each march texel stands for exactly upsampling_factor^2 pixels, and the march's image
+    // may reach past the view's edge; 1 otherwise.
+    uv_scale: vec2<f32>,
 }
 
 // This frame's march: (L, T), and (where the ray stopped, where its content lies) in metres.
@@ -131,7 +135,9 @@ fn temporal_resolve(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
     // The new frame at this pixel, upsampled; where its content lies, from the tap that counts
     // most.
     let size = vec2<i32>(textureDimensions(march_colour));
-    let f = footprint_offset(in.uv, size, temporal.sample_offset);
+    // Where this pixel lies on the march's image (Rust: `march_uv`).
+    let march_uv = in.uv / temporal.uv_scale;
+    let f = footprint_offset(march_uv, size, temporal.sample_offset);
     var taps = vec4<f32>(0.0);
     var contents = vec4<f32>(0.0);
     for (var k = 0; k < 4; k++) {
@@ -151,7 +157,7 @@ fn temporal_resolve(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
     let content = contents[strongest];
 
     // The new frame's range around this pixel, at the march's resolution.
-    let centre = clamp(vec2<i32>(in.uv * vec2<f32>(size)), vec2<i32>(0), size - 1);
+    let centre = clamp(vec2<i32>(march_uv * vec2<f32>(size)), vec2<i32>(0), size - 1);
     var lo = current;
     var hi = current;
     for (var dy = -1; dy <= 1; dy++) {
@@ -167,7 +173,7 @@ fn temporal_resolve(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
     // 0 for its neighbours (Rust: `hit_proximity`); 1 at full resolution.
     var proximity = 1.0;
     if temporal.upsampling_factor > 1u {
-        let sample_uv = (vec2<f32>(centre) + 0.5 + temporal.sample_offset) / vec2<f32>(size);
+        let sample_uv = (vec2<f32>(centre) + 0.5 + temporal.sample_offset) / vec2<f32>(size) * temporal.uv_scale;
         let near = max(vec2<f32>(0.0), 1.0 - abs((in.uv - sample_uv) * view.viewport.zw));
         proximity = near.x * near.y;
     }

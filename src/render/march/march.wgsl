@@ -96,7 +96,7 @@ fn upsampled_shafts(uv: vec2<f32>, distance: f32) -> vec2<f32> {
 fn fragment(in: FullscreenVertexOutput) -> MarchOutput {
     // The ray goes through this frame's sample point of the texel (the temporal upsampling's
     // offset, 0 without it), which falls on one full-resolution pixel; it ends at its depth.
-    let uv = in.uv + clouds.sample_offset_uv;
+    let uv = in.uv * clouds.march_uv_scale + clouds.sample_offset_uv;
     let depth = depth_under(uv);
 #else
 @fragment

@@ -226,7 +226,7 @@ fn prepare_cloud_view_buffers(
         let frame = map.map(|m| m.relative_to(view.camera_m));
         let mut uniforms = UniformBuffer::from(
             GpuCloudUniforms::new(&view.settings, layer_count, frame.as_ref())
-                .with_sample_offset(view.upsampling.offset_uv),
+                .with_upsampling(&view.upsampling),
         );
         uniforms.set_label(Some("cloud_march_uniforms"));
         uniforms.write_buffer(&device, &queue);

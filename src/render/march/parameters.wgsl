@@ -53,10 +53,15 @@ struct CloudUniforms {
     // texels, in uv from the texels' centres (Rust: `reference::composite::sample_offset`
     // over the march's size). 0 at full resolution and without the accumulation.
     sample_offset_uv: vec2<f32>,
+    // The view's uv per march uv: the march's image covers the view and, with the temporal
+    // upsampling, the pixels past its edge up to a whole texel (Rust:
+    // `TemporalUpsampling::uv_scale`); 1 otherwise.
+    march_uv_scale: vec2<f32>,
     // Most extra light steps per view-sample footprint (Rust:
     // `MarchSettings::light_steps_per_footprint`; 0: no limit).
     light_steps_per_footprint: f32,
     pad_b: u32,
+    pad_c: vec2<u32>,
     // xyz: unit vector from the planet centre through the camera.
     camera_up: vec4<f32>,
     // xyz: unit vector toward the sun, world space.
