@@ -676,13 +676,13 @@ impl TemporalUpsampling {
         let march = UVec2::from(upsampled_march_size(size.to_array(), factor));
         let [x, y] = sample_offset(frame, factor);
         let offset_texels = Vec2::new(x as f32, y as f32);
-        let pixels_per_texel = factor as f32 / size.max(UVec2::ONE).as_vec2();
+        let texel_uv = factor as f32 / size.max(UVec2::ONE).as_vec2();
         Self {
             factor,
             size: march,
-            uv_scale: march.as_vec2() * pixels_per_texel,
+            uv_scale: march.as_vec2() * texel_uv,
             offset_texels,
-            offset_uv: offset_texels * pixels_per_texel,
+            offset_uv: offset_texels * texel_uv,
         }
     }
 }
