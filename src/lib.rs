@@ -61,7 +61,7 @@ pub mod world;
 
 /// Everything a game needs to add clouds, in one import.
 pub mod prelude {
-    pub use crate::layers::{CloudKind, CloudLayer, DensityProfile};
+    pub use crate::layers::{CloudKind, CloudLayer, DensityProfile, LayerTransition};
     pub use crate::precipitation::{
         PrecipitationPlugin, PrecipitationSettings, PrecipitationState,
     };
@@ -112,7 +112,8 @@ pub enum CloudscapeSystems {
     Clock,
     /// Samples the [`weather::WeatherSource`] forecasts into [`weather::CurrentWeather`].
     Weather,
-    /// Maps the weather onto weather-driven [`layers::CloudLayer`]s.
+    /// Maps the weather onto weather-driven [`layers::CloudLayer`]s (or their
+    /// [`layers::LayerTransition`] targets), then moves every transition.
     Layers,
     /// Aims the [`sky::Sun`] lights.
     Sun,

@@ -32,6 +32,9 @@
 //!   [`CloudLayer::weather_driven`] is true is rewritten from the forecast by the weather mapping
 //!   ([`weather::mapping`](crate::weather::mapping)). Any other layer is left alone, and every
 //!   value is the user's ("play" mode for a slotted layer).
+//! - **How it changes**: a layer with a [`LayerTransition`] moves smoothly to the transition's
+//!   target over its duration; the mapping and the presets write that target. Picking a new
+//!   target halfway keeps every value and its rate continuous.
 //!
 //! Any number of layers may exist. A layer that [`CloudLayer::is_visible`] says is invisible
 //! (coverage 0, density 0, or no thickness) is not sent to the GPU and costs nothing.
@@ -79,6 +82,7 @@ mod haze;
 mod kind;
 mod profile;
 pub mod rain;
+mod transition;
 
 use bevy::prelude::{Component, Reflect, ReflectComponent, ReflectDefault};
 
@@ -87,6 +91,8 @@ pub(crate) use drift::drift_cloud_layers;
 pub use haze::Haze;
 pub use kind::{CloudKind, KindDefaults};
 pub use profile::{DensityProfile, ProfileInterpolation, ProfilePoint};
+pub(crate) use transition::run_transitions;
+pub use transition::{DEFAULT_TRANSITION_S, HazeTransition, LayerTransition};
 
 /// One layer of cloud between two altitudes above the ground. The [module docs](self) explain
 /// the model.

@@ -65,7 +65,9 @@ pub use sample::{
     DEFAULT_MAX_BRIDGE_S, DataEdge, LevelState, STANDARD_LEVELS_HPA, SampleWarning, Sampler,
     VariableSet, WeatherState,
 };
-pub use source::{CurrentWeather, FarForecast, ForecastLoader, PlaceWeather, WeatherSource};
+pub use source::{
+    CurrentWeather, FarForecast, ForecastLoader, ForecastSteps, PlaceWeather, WeatherSource,
+};
 
 /// Forecast assets, their loader, the per-frame sampling of the [`WeatherSource`] into
 /// [`CurrentWeather`], and the mapping of that weather onto [`LayerSlot`] layers; part of
@@ -81,13 +83,21 @@ impl Plugin for WeatherPlugin {
             .register_type::<WeatherSource>()
             .register_type::<LayerSlot>()
             .register_type::<crate::layers::CloudLayer>()
+            .register_type::<crate::layers::LayerTransition>()
+            .register_type::<crate::layers::HazeTransition>()
+            .init_resource::<crate::layers::HazeTransition>()
             .add_systems(
                 Update,
                 (
                     (source::report_failed_forecasts, source::sample_weather)
                         .chain()
                         .in_set(CloudscapeSystems::Weather),
-                    mapping::map_weather_onto_layers.in_set(CloudscapeSystems::Layers),
+                    (
+                        mapping::map_weather_onto_layers,
+                        crate::layers::run_transitions,
+                    )
+                        .chain()
+                        .in_set(CloudscapeSystems::Layers),
                 ),
             );
     }

@@ -103,6 +103,44 @@ pub struct PlaceWeather {
     pub scene_position: Vec3,
     /// The interpolated state.
     pub state: WeatherState,
+    /// The forecast's own steps on either side of the scene time, which the weather mapping
+    /// blends so that nothing it derives (a cloud kind from a cover threshold, a weather code)
+    /// steps at the hour. `None` outside the forecast, or for a state made by hand.
+    pub steps: Option<ForecastSteps>,
+}
+
+/// The states at the forecast steps around an instant ([`PlaceWeather::steps`]).
+#[derive(Debug, Clone)]
+pub struct ForecastSteps {
+    /// The state at the last step at or before the instant.
+    pub before: WeatherState,
+    /// The state at the next step.
+    pub after: WeatherState,
+    /// Where the instant lies from `before` (0) to `after` (1).
+    pub fraction: f32,
+}
+
+impl ForecastSteps {
+    /// The steps of `forecast` around `unix_seconds`, or `None` outside its times (or for a NaN
+    /// time). Each state is sampled exactly at its step.
+    #[must_use]
+    pub fn around(forecast: &Forecast, unix_seconds: f64) -> Option<Self> {
+        let times = &forecast.times;
+        let after = times.partition_point(|t| (t.unix_seconds() as f64) <= unix_seconds);
+        if after == 0 || after >= times.len() {
+            return None;
+        }
+        let (t0, t1) = (times[after - 1], times[after]);
+        let span = (t1.unix_seconds() - t0.unix_seconds()) as f64;
+        if span <= 0.0 {
+            return None;
+        }
+        Some(Self {
+            before: forecast.sample(t0),
+            after: forecast.sample(t1),
+            fraction: ((unix_seconds - t0.unix_seconds() as f64) / span).clamp(0.0, 1.0) as f32,
+        })
+    }
 }
 
 /// The forecasts of [`WeatherSource`] sampled at the [`SceneClock`] time; updated every frame in
@@ -142,6 +180,7 @@ fn sample_place(
         scene_position: origin.to_scene(place.latitude_deg, place.longitude_deg, place.elevation_m),
         place: place.clone(),
         state,
+        steps: ForecastSteps::around(forecast, unix_seconds),
     })
 }
 

@@ -100,3 +100,5 @@ pub const KOSCHMIEDER_CONSTANT: f32 = 3.912;
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod timelapse_tests;

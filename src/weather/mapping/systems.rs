@@ -1,24 +1,39 @@
 //! The Bevy system that writes the near place's weather onto the slotted layers.
 
+use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
 
 use super::{LayerSlot, MappedWeather, WeatherMapping};
-use crate::layers::{CloudLayer, FarCoverage};
+use crate::layers::{CloudLayer, FarCoverage, Haze, HazeTransition, LayerTransition};
+use crate::scene::UtcInstant;
 
-/// Writes the near place's [`CurrentWeather`](crate::weather::CurrentWeather) onto every weather-driven
-/// [`CloudLayer`] with a [`LayerSlot`], when the weather changed. Layers are only written when
-/// their values change, so change detection stays meaningful; mapping warnings are logged when
-/// they change, not every frame.
+/// Writes the near place's [`CurrentWeather`](crate::weather::CurrentWeather) onto every
+/// weather-driven [`CloudLayer`] with a [`LayerSlot`], when the weather changed. A layer with a
+/// [`LayerTransition`] gets the weather as its target (the first one as a cut, so a scene starts
+/// with its clouds); any other is written directly. Between two forecast steps the layers mapped
+/// at each step are blended ([`CloudLayer::lerp`]), so no threshold or weather code of the
+/// mapping makes a layer step at the hour. Layers are only written when their values change, so
+/// change detection stays meaningful; mapping warnings are logged when they change, not every
+/// frame.
 pub(crate) fn map_weather_onto_layers(
     current: Res<crate::weather::CurrentWeather>,
     mapping: Option<Res<WeatherMapping>>,
     forecasts: Res<Assets<crate::weather::Forecast>>,
     source: Option<Res<crate::weather::WeatherSource>>,
-    mut layers: Query<(&LayerSlot, &mut CloudLayer)>,
-    haze: Option<ResMut<crate::layers::Haze>>,
+    mut layers: Query<(
+        Entity,
+        &LayerSlot,
+        &mut CloudLayer,
+        Option<&mut LayerTransition>,
+    )>,
+    haze: Option<ResMut<Haze>>,
+    haze_transition: Option<ResMut<HazeTransition>>,
     mut last_warnings: Local<Vec<String>>,
+    mut steps_mapped: Local<HashMap<Entity, StepLayers>>,
 ) {
-    if !current.is_changed() && !mapping.as_ref().is_some_and(|m| m.is_changed()) {
+    if mapping.as_ref().is_some_and(|m| m.is_changed()) {
+        steps_mapped.clear();
+    } else if !current.is_changed() {
         return;
     }
     let Some(near) = &current.near else {
@@ -35,12 +50,18 @@ pub(crate) fn map_weather_onto_layers(
         },
         |m| *m,
     );
-    let mapped = rules.map(&near.state, near.place.elevation_m as f32);
-    if let (Some(mut haze), Some(visibility)) = (haze, mapped.haze_visibility_m())
-        && haze.weather_driven
-        && haze.visibility_m != visibility
-    {
-        haze.visibility_m = visibility;
+    let elevation = near.place.elevation_m as f32;
+    let mapped = rules.map(&near.state, elevation);
+    let steps = near.steps.as_ref().map(|steps| {
+        (
+            rules.map(&steps.before, elevation),
+            rules.map(&steps.after, elevation),
+            steps.fraction,
+            (steps.before.time, steps.after.time),
+        )
+    });
+    if let Some(visibility) = mapped.haze_visibility_m() {
+        set_haze(haze, haze_transition, visibility);
     }
     // Far places: their own mapping, of which only the coverage is used (Thomann 2021 §4.5: the
     // distant weather shows on the horizon toward its place). Heights are above each place's
@@ -57,9 +78,31 @@ pub(crate) fn map_weather_onto_layers(
         })
         .collect();
     let east_north = |p: Vec3| [p.x, -p.z];
-    for (slot, mut layer) in &mut layers {
-        let mut updated = layer.clone();
-        mapped.apply(*slot, &mut updated);
+    steps_mapped.retain(|entity, _| layers.contains(*entity));
+    for (entity, slot, mut layer, transition) in &mut layers {
+        let previous = transition.as_ref().map_or(&*layer, |t| &t.target);
+        let mut updated = match &steps {
+            Some((before, after, fraction, key)) => {
+                // Both steps are mapped once, when the scene time enters the step, from the
+                // layer as it was then: the mapping keeps a kind's shape from the layer it
+                // writes, so mapping onto a blend every frame would feed the blend back.
+                let key = *key;
+                let mapped = steps_mapped
+                    .entry(entity)
+                    .and_modify(|cached| {
+                        if cached.key != key || !previous.weather_driven {
+                            *cached = StepLayers::new(key, previous, *slot, before, after);
+                        }
+                    })
+                    .or_insert_with(|| StepLayers::new(key, previous, *slot, before, after));
+                mapped.before.lerp(&mapped.after, *fraction)
+            }
+            None => {
+                let mut updated = previous.clone();
+                mapped.apply(*slot, &mut updated);
+                updated
+            }
+        };
         if updated.weather_driven {
             updated.far_coverage = far
                 .iter()
@@ -76,8 +119,26 @@ pub(crate) fn map_weather_onto_layers(
                 })
                 .collect();
         }
-        if updated != *layer {
-            *layer = updated;
+        match transition {
+            Some(mut transition) => {
+                if !updated.weather_driven {
+                    continue;
+                }
+                if transition.target != updated {
+                    transition.target = updated;
+                }
+                if !transition.has_weather {
+                    transition.has_weather = true;
+                    let mut cut = layer.clone();
+                    transition.cut(&mut cut);
+                    *layer = cut;
+                }
+            }
+            None => {
+                if updated != *layer {
+                    *layer = updated;
+                }
+            }
         }
     }
     let warnings: Vec<String> = mapped.warnings.iter().map(ToString::to_string).collect();
@@ -89,5 +150,64 @@ pub(crate) fn map_weather_onto_layers(
             );
         }
         *last_warnings = warnings;
+    }
+}
+
+/// The layers one slot gets at the two forecast steps around the scene time.
+pub(crate) struct StepLayers {
+    key: (UtcInstant, UtcInstant),
+    before: CloudLayer,
+    after: CloudLayer,
+}
+
+impl StepLayers {
+    fn new(
+        key: (UtcInstant, UtcInstant),
+        previous: &CloudLayer,
+        slot: LayerSlot,
+        before: &MappedWeather,
+        after: &MappedWeather,
+    ) -> Self {
+        let mut at_before = previous.clone();
+        before.apply(slot, &mut at_before);
+        let mut at_after = at_before.clone();
+        after.apply(slot, &mut at_after);
+        Self {
+            key,
+            before: at_before,
+            after: at_after,
+        }
+    }
+}
+
+/// Sets the weather's visibility on the haze: as the [`HazeTransition`]'s target when there is
+/// one (the first as a cut), else on the [`Haze`] itself; nothing when the haze is not
+/// weather-driven.
+fn set_haze(
+    haze: Option<ResMut<Haze>>,
+    transition: Option<ResMut<HazeTransition>>,
+    visibility_m: f32,
+) {
+    let Some(mut haze) = haze else {
+        return;
+    };
+    match transition {
+        Some(mut transition) => {
+            let first = transition.target.is_none();
+            let mut target = transition.target.clone().unwrap_or_else(|| haze.clone());
+            if !target.weather_driven || target.visibility_m == visibility_m {
+                return;
+            }
+            target.visibility_m = visibility_m;
+            if first {
+                *haze = target.clone();
+            }
+            transition.target = Some(target);
+        }
+        None => {
+            if haze.weather_driven && haze.visibility_m != visibility_m {
+                haze.visibility_m = visibility_m;
+            }
+        }
     }
 }

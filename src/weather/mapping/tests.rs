@@ -30,6 +30,7 @@ fn far_places_set_far_coverage_on_weather_driven_layers() {
         },
         scene_position: position,
         state,
+        steps: None,
     };
     let mut overcast_far = fair();
     overcast_far.values[Variable::LowCover as usize] = Some(0.95);
@@ -103,6 +104,7 @@ fn visibility_sets_the_haze_and_a_gap_keeps_it() {
         },
         scene_position: Vec3::ZERO,
         state,
+        steps: None,
     };
     let mut app = App::new();
     app.insert_resource(CurrentWeather {

@@ -5,7 +5,7 @@ use std::ops::{Index, IndexMut};
 use bevy::prelude::*;
 
 use super::{LayerSlot, MappingWarning, WeatherMapping};
-use crate::layers::CloudLayer;
+use crate::layers::{CloudLayer, LayerTransition};
 use crate::weather::WeatherState;
 
 /// One [`CloudLayer`] per [`LayerSlot`], indexable by slot:
@@ -89,7 +89,8 @@ pub fn layers_for_weather(
 }
 
 /// Spawns one [`CloudLayer`] entity per [`LayerSlot`], each starting at coverage 0, for the
-/// weather to fill. Returns the entities in [`LayerSlot::ALL`] order.
+/// weather to fill, with a [`LayerTransition`] (default duration) that the weather and the
+/// presets drive. Returns the entities in [`LayerSlot::ALL`] order.
 pub fn spawn_weather_layers(commands: &mut Commands) -> Vec<Entity> {
     LayerSlot::ALL
         .iter()
@@ -99,6 +100,7 @@ pub fn spawn_weather_layers(commands: &mut Commands) -> Vec<Entity> {
                     Name::new(format!("cloud layer: {slot}")),
                     slot,
                     slot.initial_layer(),
+                    LayerTransition::new(slot.initial_layer()),
                 ))
                 .id()
         })
