@@ -76,7 +76,8 @@ pub mod prelude {
     pub use crate::scene::{ClockMode, GeoOrigin, SceneClock, UtcInstant};
     pub use crate::sky::{SkyPlugin, Sun};
     pub use crate::weather::{
-        CurrentWeather, Forecast, LayerSlot, WeatherPlugin, WeatherSource, spawn_weather_layers,
+        ActivePreset, CloudPreset, CurrentWeather, Forecast, LayerSlot, WeatherPlugin,
+        WeatherSource, spawn_weather_layers,
     };
     pub use crate::world::{CloudWorld, PlanetAnchor};
     pub use crate::{CloudscapePlugin, CloudscapeSystems};

@@ -45,6 +45,7 @@ mod forecast;
 pub mod mapping;
 mod meteoblue;
 mod open_meteo;
+pub mod preset;
 mod raw;
 mod sample;
 mod source;
@@ -61,6 +62,7 @@ pub use mapping::{
     MappingWarning, WeatherLayers, WeatherMapping, layers_for_weather, map_weather,
     spawn_weather_layers,
 };
+pub use preset::{ActivePreset, CloudPreset, PresetLoader};
 pub use sample::{
     DEFAULT_MAX_BRIDGE_S, DataEdge, LevelState, STANDARD_LEVELS_HPA, SampleWarning, Sampler,
     VariableSet, WeatherState,
@@ -79,6 +81,8 @@ impl Plugin for WeatherPlugin {
     fn build(&self, app: &mut App) {
         app.init_asset::<Forecast>()
             .register_asset_loader(ForecastLoader)
+            .init_asset::<CloudPreset>()
+            .register_asset_loader(PresetLoader)
             .init_resource::<CurrentWeather>()
             .register_type::<WeatherSource>()
             .register_type::<LayerSlot>()
@@ -93,6 +97,8 @@ impl Plugin for WeatherPlugin {
                         .chain()
                         .in_set(CloudscapeSystems::Weather),
                     (
+                        preset::report_failed_presets,
+                        preset::apply_active_preset,
                         mapping::map_weather_onto_layers,
                         crate::layers::run_transitions,
                     )

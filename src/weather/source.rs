@@ -7,7 +7,10 @@
 //! reported with `warn!` naming the file, key and index, and the last good forecast stays in use.
 
 use bevy::{
-    asset::{AssetLoadFailedEvent, AssetLoader, AssetPath, LoadContext, io::Reader},
+    asset::{
+        AssetLoadError, AssetLoadFailedEvent, AssetLoader, AssetPath, LoadContext, io::Reader,
+    },
+    platform::collections::HashMap,
     prelude::*,
 };
 
@@ -223,13 +226,61 @@ pub(crate) fn sample_weather(
 
 /// Logs forecast files that failed to load, naming file, key and index; the last good forecast
 /// stays in `Assets<Forecast>`.
-pub(crate) fn report_failed_forecasts(mut failures: MessageReader<AssetLoadFailedEvent<Forecast>>) {
-    for failure in failures.read() {
-        warn!(
-            "bevy_cloudscape: cannot use forecast {}: {} (keeping the last good data)",
-            failure.path, failure.error
-        );
+pub(crate) fn report_failed_forecasts(
+    mut failures: MessageReader<AssetLoadFailedEvent<Forecast>>,
+    mut loaded: MessageReader<AssetEvent<Forecast>>,
+    server: Res<AssetServer>,
+    mut reported: Local<HashMap<AssetPath<'static>, String>>,
+) {
+    let _ = report_load_failures::<Forecast, ForecastError>(
+        "forecast",
+        "data",
+        &mut failures,
+        &mut loaded,
+        &server,
+        &mut reported,
+    );
+}
+
+/// Warns once for each file that fails to load or reload with the loader's own message (the
+/// file and the key, without the asset server's backtrace), until the file loads again: a
+/// file watcher that sees one edit twice gives one warning. Returns the warnings given.
+pub(crate) fn report_load_failures<A: Asset, E: std::error::Error + 'static>(
+    what: &str,
+    kept: &str,
+    failures: &mut MessageReader<AssetLoadFailedEvent<A>>,
+    loaded: &mut MessageReader<AssetEvent<A>>,
+    server: &AssetServer,
+    reported: &mut HashMap<AssetPath<'static>, String>,
+) -> Vec<String> {
+    let mut given = Vec::new();
+    for event in loaded.read() {
+        if let AssetEvent::Modified { id } | AssetEvent::LoadedWithDependencies { id } = event
+            && let Some(path) = server.get_path(*id)
+        {
+            reported.remove(&path.into_owned());
+        }
     }
+    for failure in failures.read() {
+        let message = match &failure.error {
+            AssetLoadError::AssetLoaderError(error) => error
+                .error()
+                .downcast_ref::<E>()
+                .map_or_else(|| error.error().to_string(), ToString::to_string),
+            other => other.to_string(),
+        };
+        if reported.get(&failure.path) == Some(&message) {
+            continue;
+        }
+        let warning = format!(
+            "bevy_cloudscape: cannot use {what} {}: {message} (keeping the last good {kept})",
+            failure.path
+        );
+        warn!("{warning}");
+        given.push(warning);
+        reported.insert(failure.path.clone(), message);
+    }
+    given
 }
 
 #[cfg(test)]

@@ -114,3 +114,96 @@ fn replacing_a_forecast_file_updates_the_weather_and_bad_files_keep_the_last_goo
     assert_eq!(low_layer_coverage(&mut app), 0.7);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The failures of preset files, as the asset server reports them.
+#[derive(Resource, Default)]
+struct PresetFailures(Vec<String>);
+
+fn record_preset_failures(
+    mut failures: MessageReader<bevy::asset::AssetLoadFailedEvent<CloudPreset>>,
+    mut seen: ResMut<PresetFailures>,
+) {
+    for failure in failures.read() {
+        seen.0.push(format!("{}: {}", failure.path, failure.error));
+    }
+}
+
+#[test]
+fn a_preset_file_drives_the_layers_and_a_broken_edit_keeps_the_last_good() {
+    let dir = scratch_assets("preset");
+    let file = dir.join("sky.preset.json");
+    let sky = |coverage: &str| {
+        format!(
+            r#"{{"visibility_m": 12000,
+                "layers": [{{"slot": "low", "kind": "stratocumulus", "coverage": {coverage}}}]}}"#
+        )
+    };
+    std::fs::write(&file, sky("0.3")).unwrap();
+
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        AssetPlugin {
+            file_path: dir.to_string_lossy().into_owned(),
+            watch_for_changes_override: Some(true),
+            ..default()
+        },
+        CloudscapePlugin,
+    ))
+    .init_resource::<PresetFailures>()
+    .add_systems(Update, record_preset_failures);
+    app.finish();
+    app.cleanup();
+    spawn_weather_layers(&mut app.world_mut().commands());
+    app.world_mut().flush();
+    let preset = app
+        .world()
+        .resource::<AssetServer>()
+        .load::<CloudPreset>("sky.preset.json");
+    app.insert_resource(ActivePreset {
+        preset,
+        duration_s: 0.0,
+    });
+
+    update_until(&mut app, Duration::from_secs(20), |app| {
+        (low_layer_coverage_of(app) - 0.3).abs() < 1e-6
+    });
+    let haze = app.world().resource::<bevy_cloudscape::layers::Haze>();
+    assert_eq!(haze.visibility_m, 12_000.0, "the preset sets the haze");
+
+    // An edit of the file is a new preset.
+    std::thread::sleep(Duration::from_millis(500));
+    std::fs::write(&file, sky("0.6")).unwrap();
+    update_until(&mut app, Duration::from_secs(10), |app| {
+        (low_layer_coverage_of(app) - 0.6).abs() < 1e-6
+    });
+
+    // A broken edit fails to load with an error naming the file and the key, and the sky
+    // stays.
+    std::fs::write(&file, sky("1.5")).unwrap();
+    update_until(&mut app, Duration::from_secs(10), |app| {
+        !app.world().resource::<PresetFailures>().0.is_empty()
+    });
+    for _ in 0..20 {
+        app.update();
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let failures = &app.world().resource::<PresetFailures>().0;
+    assert!(
+        failures[0].contains("sky.preset.json") && failures[0].contains("layers[0].coverage"),
+        "{}",
+        failures[0]
+    );
+    assert!((low_layer_coverage_of(&app) - 0.6).abs() < 1e-6);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Coverage of the low layer, without a mutable borrow.
+fn low_layer_coverage_of(app: &App) -> f32 {
+    let world = app.world();
+    world
+        .iter_entities()
+        .filter_map(|e| Some((e.get::<LayerSlot>()?, e.get::<CloudLayer>()?)))
+        .find(|(slot, _)| **slot == LayerSlot::Low)
+        .map_or(f32::NAN, |(_, layer)| layer.coverage)
+}

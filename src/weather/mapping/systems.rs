@@ -3,6 +3,7 @@
 use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
 
+use super::inputs::Inputs;
 use super::{LayerSlot, MappedWeather, WeatherMapping};
 use crate::layers::{CloudLayer, FarCoverage, Haze, HazeTransition, LayerTransition};
 use crate::scene::UtcInstant;
@@ -86,7 +87,8 @@ pub(crate) fn map_weather_onto_layers(
                 // Both steps are mapped once, when the scene time enters the step, from the
                 // layer as it was then: the mapping keeps a kind's shape from the layer it
                 // writes, so mapping onto a blend every frame would feed the blend back.
-                let key = *key;
+                // Keyed by the steps' mapped inputs too, so a reloaded forecast is mapped again.
+                let key = (*key, before.inputs.clone(), after.inputs.clone());
                 let mapped = steps_mapped
                     .entry(entity)
                     .and_modify(|cached| {
@@ -153,16 +155,19 @@ pub(crate) fn map_weather_onto_layers(
     }
 }
 
+/// The forecast steps' instants and what the mapping read at each.
+type StepKey = ((UtcInstant, UtcInstant), Inputs, Inputs);
+
 /// The layers one slot gets at the two forecast steps around the scene time.
 pub(crate) struct StepLayers {
-    key: (UtcInstant, UtcInstant),
+    key: StepKey,
     before: CloudLayer,
     after: CloudLayer,
 }
 
 impl StepLayers {
     fn new(
-        key: (UtcInstant, UtcInstant),
+        key: StepKey,
         previous: &CloudLayer,
         slot: LayerSlot,
         before: &MappedWeather,
