@@ -544,10 +544,14 @@ pub(crate) fn apply_active_preset(
         return;
     };
     let id = active.preset.id();
-    let reloaded = events.read().fold(false, |seen, event| {
-        seen || matches!(event, AssetEvent::Modified { id: e } | AssetEvent::Added { id: e }
-            if *e == id)
-    });
+    // Read every event (not just up to the first match), so none is left for the next frame.
+    let reloaded = events
+        .read()
+        .filter(|event| {
+            matches!(event, AssetEvent::Modified { id: e } | AssetEvent::Added { id: e } if *e == id)
+        })
+        .count()
+        > 0;
     let key = (id, active.duration_s);
     if !reloaded && *applied == Some(key) {
         return;

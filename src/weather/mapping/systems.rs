@@ -88,7 +88,7 @@ pub(crate) fn map_weather_onto_layers(
                 // layer as it was then: the mapping keeps a kind's shape from the layer it
                 // writes, so mapping onto a blend every frame would feed the blend back.
                 // Keyed by the steps' mapped inputs too, so a reloaded forecast is mapped again.
-                let key = (*key, before.inputs.clone(), after.inputs.clone());
+                let key = (*key, before.inputs, after.inputs);
                 let mapped = steps_mapped
                     .entry(entity)
                     .and_modify(|cached| {
