@@ -17,11 +17,17 @@
 //!   `D₀ = 3.67 / Λ` (Marshall–Palmer), from Atlas et al. 1973:
 //!   `v = 9.65 − 10.3 e^(−0.6 D₀)` m/s (about 3.6 m/s at 1 mm/h, 6.1 m/s at 25 mm/h). Snowflakes
 //!   fall at about 1 m/s (Locatelli & Hobbs 1974: 0.5–1.5 m/s for aggregates).
-//! - **Rain or snow.** Snow when the forecast's snow fraction is above one half.
+//! - **Rain or snow.** Snow when the snow fraction is above one half. Without a forecast snow
+//!   fraction it comes from the forecast's 2 m temperature carried up to the camera by the
+//!   standard lapse rate, 6.5 K/km (ICAO standard atmosphere), and split around 1 °C, the mean
+//!   rain–snow threshold over land (Jennings et al. 2018, "Spatial variation of the rain–snow
+//!   temperature threshold across the Northern Hemisphere"): all snow at 0 °C and below, all
+//!   rain at 2 °C and above ([`snow_fraction_at`]). A camera on a hill sees the snow line.
 //!
 //! The rate is the largest [`CloudLayer::rain_mm_per_h`] of the visible layers (the weather
 //! mapping puts the forecast's precipitation there, and play mode's sliders too); the snow fraction
-//! is the near forecast's, unless [`PrecipitationSettings::snow_fraction`] overrides it. The wind
+//! is the near forecast's (or its temperature's), unless [`PrecipitationSettings::snow_fraction`]
+//! overrides it. The wind
 //! of the lowest raining layer carries the particles sideways.
 //!
 //! # Rendering
@@ -123,6 +129,22 @@ pub fn large_drop_concentration(rate_mm_per_h: f32) -> f32 {
     8000.0 / slope * (-slope).exp()
 }
 
+/// Standard temperature lapse rate of the troposphere, K per metre (ICAO standard atmosphere).
+pub const LAPSE_RATE_K_PER_M: f32 = 0.0065;
+
+/// The fraction of precipitation that falls as snow `height_m` metres above a station that
+/// measures `temperature_c` °C at 2 m: the temperature there by [`LAPSE_RATE_K_PER_M`], then 1
+/// at 0 °C and below, 0 at 2 °C and above, linear between (the [module docs](self) give the
+/// source). A NaN input gives 0 (rain).
+#[must_use]
+pub fn snow_fraction_at(temperature_c: f32, height_m: f32) -> f32 {
+    let temperature = temperature_c - LAPSE_RATE_K_PER_M * height_m;
+    if temperature.is_nan() {
+        return 0.0;
+    }
+    ((2.0 - temperature) / 2.0).clamp(0.0, 1.0)
+}
+
 /// What falls at `rate_mm_per_h` (water equivalent) with `snow_fraction` (0–1) of it snow. See
 /// the [module docs](self) for the formulas. NaN, infinite or negative inputs count as none.
 #[must_use]
@@ -176,6 +198,7 @@ fn update_precipitation_state(
     settings: Res<PrecipitationSettings>,
     current: Option<Res<CurrentWeather>>,
     layers: Query<&CloudLayer>,
+    cameras: Query<&GlobalTransform, With<VolumetricClouds>>,
     mut state: ResMut<PrecipitationState>,
 ) {
     let rate = layers
@@ -184,12 +207,16 @@ fn update_precipitation_state(
         .map(|layer| layer.rain_mm_per_h)
         .filter(|r| r.is_finite())
         .fold(0.0, f32::max);
+    let camera_height = cameras.iter().next().map_or(0.0, |t| t.translation().y);
     let snow_fraction = settings.snow_fraction.unwrap_or_else(|| {
-        current
-            .as_ref()
-            .and_then(|c| c.near.as_ref())
-            .and_then(|near| near.state.get(Variable::SnowFraction))
-            .unwrap_or(0.0)
+        let near = current.as_ref().and_then(|c| c.near.as_ref());
+        near.and_then(|near| {
+            near.state.get(Variable::SnowFraction).or_else(|| {
+                let temperature = near.state.get(Variable::Temperature)?;
+                Some(snow_fraction_at(temperature, camera_height))
+            })
+        })
+        .unwrap_or(0.0)
     });
     let look = if settings.enabled {
         precipitation_look(rate, snow_fraction)
@@ -419,6 +446,23 @@ mod tests {
             precipitation_look(5.0, 0.9).fall_speed_m_s,
             SNOW_FALL_SPEED_M_S
         );
+    }
+
+    #[test]
+    fn the_snow_line_follows_the_temperature_and_the_lapse_rate() {
+        assert_eq!(snow_fraction_at(5.0, 0.0), 0.0);
+        assert_eq!(snow_fraction_at(-3.0, 0.0), 1.0);
+        assert!((snow_fraction_at(1.0, 0.0) - 0.5).abs() < 1e-6);
+        // 4 °C in the valley is rain; 600 m up it is 0.1 °C: nearly all snow.
+        assert!((snow_fraction_at(4.0, 600.0) - 0.95).abs() < 1e-3);
+        assert_eq!(snow_fraction_at(f32::NAN, 0.0), 0.0);
+        // Monotone: colder or higher never melts the snow.
+        let mut last = 0.0;
+        for i in 0..100 {
+            let f = snow_fraction_at(3.0 - 0.05 * i as f32, 0.0);
+            assert!(f >= last);
+            last = f;
+        }
     }
 
     #[test]

@@ -35,3 +35,18 @@ pub(crate) fn wait_for_forecasts(
         progress.ready = true;
     }
 }
+
+/// Headless images are each a moment of the forecast: the layers cut to the weather instead of
+/// taking a transition's seconds of (real) time to get there. The mapping stays continuous in
+/// scene time, so a time-lapse still has no pops.
+pub(crate) fn cut_transitions(
+    mut layers: Query<&mut bevy_cloudscape::layers::LayerTransition, Added<LayerSlot>>,
+    mut haze: ResMut<bevy_cloudscape::layers::HazeTransition>,
+) {
+    for mut transition in &mut layers {
+        transition.duration_s = 0.0;
+    }
+    if haze.duration_s != 0.0 {
+        haze.duration_s = 0.0;
+    }
+}

@@ -3,8 +3,7 @@
 //! toward Fribourg), with the sun where it really is at the scene time.
 //!
 //! ```text
-//! cargo run --release --example bern                        # a window, keyboard controls
-//! cargo run --release --example bern --features inspector   # a window with egui panels
+//! cargo run --release --example bern                        # a window with panels and keys
 //! cargo run --release --example bern -- --headless --camera gurten \
 //!     --time 2021-05-03T14:00:00Z --out bern.png            # one frame, no window
 //! cargo run --release --example bern -- --headless --camera bantiger \
@@ -22,12 +21,12 @@
 //! | `←`, `→` | one hour back or forward |
 //! | `P`, `[`, `]` | photo overlay on/off, move its wiper left or right (with `--photos`) |
 //!
-//! With `--features inspector` an egui window offers the same and more: **Live** mode (a time
-//! slider over the near forecast, "now", play/pause, 1×/60×/3600×) and **Play** mode (sliders for
-//! low, mid and high cover, precipitation, showers, wind and time of day, which drive the layers
-//! through the crate's own weather mapping), the frame rate and the cloud passes' GPU times, the
-//! photo overlay's settings, and an inspector for every `CloudLayer` and the camera's
-//! `VolumetricClouds`.
+//! An egui window offers the same and more: **Live** mode (a time slider over the near forecast,
+//! "now", play/pause, 1×/60×/3600×) and **Play** mode (the weather presets, and sliders for low,
+//! mid and high cover, precipitation, showers, wind, visibility, fog, temperature and time of
+//! day, which drive the layers through the crate's own weather mapping), the transition time of
+//! every change, the frame rate and the cloud passes' GPU times, the photo overlay's settings,
+//! and an inspector for every `CloudLayer` and the camera's `VolumetricClouds`.
 //!
 //! # Flags
 //!
@@ -71,7 +70,6 @@ mod common;
 
 mod cli;
 mod headless;
-#[cfg(feature = "inspector")]
 mod panel;
 mod photos;
 mod scene;
@@ -131,8 +129,8 @@ const PITCH_DEG: f32 = -2.0;
 const CLOCK_SPEEDS: [f64; 3] = [1.0, 60.0, 3600.0];
 /// Camera exposure, EV100 (`--ev100`).
 const DEFAULT_EV100: f32 = 14.0;
-/// Frames between two time-lapse images, for the atmosphere LUTs to follow the sun and the
-/// clouds' temporal accumulation (a blend of 0.1) to settle on the new time.
+/// Frames between two time-lapse images for the atmosphere LUTs to follow the sun; the capture
+/// also waits for the clouds' temporal accumulation to converge on the new time.
 const SETTLE_FRAMES: u32 = 16;
 /// Frames before the first headless image when `--warmup` is not given: the pipelines and LUTs
 /// need a few, and the clouds' temporal accumulation about twenty to settle.
@@ -196,6 +194,7 @@ fn main() -> AppExit {
             Update,
             (
                 follow_headless_shots.before(CloudscapeSystems::Clock),
+                cut_transitions.before(CloudscapeSystems::Layers),
                 wait_for_forecasts.after(CloudscapeSystems::Layers),
             ),
         );
@@ -208,10 +207,6 @@ fn main() -> AppExit {
                 photo_keys.before(update_photo_overlay),
             ),
         );
-        #[cfg(not(feature = "inspector"))]
-        app.add_systems(Startup, spawn_help_overlay.after(spawn_scene))
-            .add_systems(Update, update_help_overlay);
-        #[cfg(feature = "inspector")]
         app.add_plugins(panel::PanelPlugin);
     }
     if options.log_frame_times {

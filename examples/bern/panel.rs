@@ -6,7 +6,10 @@ use bevy::{
     ecs::component::Mutable,
     render::diagnostic::RenderDiagnosticsPlugin,
 };
-use bevy_cloudscape::weather::{Variable, WeatherMapping};
+use bevy_cloudscape::{
+    layers::{DEFAULT_TRANSITION_S, HazeTransition, LayerTransition},
+    weather::{Variable, WeatherMapping, preset::follow_forecast},
+};
 use bevy_egui::{
     EguiContext, EguiContexts, EguiPlugin, EguiPrimaryContextPass, PrimaryEguiContext, egui,
 };
@@ -29,7 +32,12 @@ impl Plugin for PanelPlugin {
             EguiPrimaryContextPass,
             (control_window, inspector_window).chain(),
         )
-        .add_systems(Update, drive_play_layers.after(CloudscapeSystems::Layers));
+        .add_systems(
+            Update,
+            (apply_panel, drive_play_layers)
+                .chain()
+                .before(CloudscapeSystems::Layers),
+        );
     }
 }
 
@@ -53,6 +61,12 @@ struct PlayWeather {
     wind_speed_m_s: f32,
     /// Where the wind blows from, degrees clockwise from north.
     wind_from_deg: f32,
+    /// Meteorological visibility, km.
+    visibility_km: f32,
+    /// Fog probability, 0–1.
+    fog: f32,
+    /// 2 m temperature, °C: rain or snow by the lapse rate.
+    temperature_c: f32,
 }
 
 impl Default for PlayWeather {
@@ -65,6 +79,9 @@ impl Default for PlayWeather {
             showers: false,
             wind_speed_m_s: 3.0,
             wind_from_deg: 270.0,
+            visibility_km: 30.0,
+            fog: 0.0,
+            temperature_c: 15.0,
         }
     }
 }
@@ -83,6 +100,13 @@ impl PlayWeather {
                 .is_some_and(|v| v > 0.0),
             wind_speed_m_s: state.wind_speed_m_s().unwrap_or(fallback.wind_speed_m_s),
             wind_from_deg: state.wind_direction_deg().unwrap_or(fallback.wind_from_deg),
+            visibility_km: state
+                .get(Variable::Visibility)
+                .map_or(fallback.visibility_km, |v| v / 1000.0),
+            fog: state.get(Variable::FogProbability).unwrap_or(0.0),
+            temperature_c: state
+                .get(Variable::Temperature)
+                .unwrap_or(fallback.temperature_c),
         }
     }
 
@@ -109,6 +133,9 @@ impl PlayWeather {
                 Variable::WindDirection,
                 self.wind_from_deg.rem_euclid(360.0),
             ),
+            (Variable::Visibility, self.visibility_km * 1000.0),
+            (Variable::FogProbability, self.fog),
+            (Variable::Temperature, self.temperature_c),
         ] {
             state.values[variable as usize] = Some(value);
         }
@@ -116,10 +143,25 @@ impl PlayWeather {
     }
 }
 
-#[derive(Resource, Default)]
+#[derive(Resource)]
 struct PanelState {
     mode: Mode,
     play: PlayWeather,
+    /// The preset play mode follows (an index into `CloudPreset::ALL`); `None`: the sliders.
+    preset: Option<usize>,
+    /// Seconds every change of the layers and the haze takes.
+    transition_s: f32,
+}
+
+impl Default for PanelState {
+    fn default() -> Self {
+        Self {
+            mode: Mode::Live,
+            play: PlayWeather::default(),
+            preset: None,
+            transition_s: DEFAULT_TRANSITION_S,
+        }
+    }
 }
 
 fn control_window(
@@ -129,7 +171,6 @@ fn control_window(
     mut view: ResMut<ViewState>,
     mut overlay: ResMut<PhotoOverlay>,
     mut captured: ResMut<UiCapturesKeyboard>,
-    mut layers: Query<&mut CloudLayer, With<LayerSlot>>,
     options: Res<BernOptions>,
     source: Res<WeatherSource>,
     forecasts: Res<Assets<Forecast>>,
@@ -172,16 +213,34 @@ fn control_window(
                 ui.selectable_value(&mut mode, Mode::Play, "Play");
             });
             if mode != panel.mode {
-                switch_mode(&mut panel, mode, &current, &mut layers);
+                switch_mode(&mut panel, mode, &current);
+            }
+            let mut transition_s = panel.transition_s;
+            ui.add(egui::Slider::new(&mut transition_s, 0.0..=30.0).text("transition, s (0 cuts)"));
+            if transition_s != panel.transition_s {
+                panel.transition_s = transition_s;
             }
             ui.label(time_label(clock.unix_seconds(), forecast));
             match panel.mode {
                 Mode::Live => live_controls(ui, &mut clock, forecast, &current),
                 Mode::Play => {
+                    let mut preset = panel.preset;
+                    ui.horizontal_wrapped(|ui| {
+                        ui.label("Preset:");
+                        for (i, p) in CloudPreset::ALL.iter().enumerate() {
+                            ui.selectable_value(&mut preset, Some(i), p.name.as_ref());
+                        }
+                        ui.selectable_value(&mut preset, None, "sliders");
+                    });
                     let mut play = panel.play.clone();
                     play_controls(ui, &mut play, &mut clock, forecast);
                     if play != panel.play {
                         panel.play = play;
+                        // A slider moved: the sliders drive the sky again.
+                        preset = None;
+                    }
+                    if preset != panel.preset {
+                        panel.preset = preset;
                     }
                 }
             }
@@ -223,21 +282,46 @@ fn control_window(
     Ok(())
 }
 
-/// Play mode takes the layers off the forecast; live mode gives them back.
-fn switch_mode(
-    panel: &mut PanelState,
-    mode: Mode,
-    current: &CurrentWeather,
-    layers: &mut Query<&mut CloudLayer, With<LayerSlot>>,
-) {
+/// Play mode starts from what the forecast says now, so switching changes nothing yet.
+fn switch_mode(panel: &mut PanelState, mode: Mode, current: &CurrentWeather) {
     panel.mode = mode;
     if mode == Mode::Play
         && let Some(near) = &current.near
     {
         panel.play = PlayWeather::from_state(&near.state);
     }
-    for mut layer in layers.iter_mut() {
-        layer.weather_driven = mode == Mode::Live;
+}
+
+/// Applies the panel's mode, preset and transition time: live mode hands the layers back to the
+/// forecast, a preset becomes the `ActivePreset`, and every transition takes the panel's time.
+fn apply_panel(
+    panel: Res<PanelState>,
+    mut commands: Commands,
+    mut transitions: Query<&mut LayerTransition, With<LayerSlot>>,
+    mut haze: ResMut<HazeTransition>,
+    mut presets: ResMut<Assets<CloudPreset>>,
+    mut handles: Local<Vec<Handle<CloudPreset>>>,
+) {
+    if !panel.is_changed() {
+        return;
+    }
+    if handles.is_empty() {
+        *handles = CloudPreset::ALL.map(|p| presets.add(p)).to_vec();
+    }
+    for mut transition in &mut transitions {
+        transition.duration_s = panel.transition_s;
+    }
+    haze.duration_s = panel.transition_s;
+    match (panel.mode, panel.preset) {
+        (Mode::Play, Some(i)) => commands.insert_resource(ActivePreset {
+            preset: handles[i].clone(),
+            duration_s: panel.transition_s,
+        }),
+        (Mode::Play, None) => commands.remove_resource::<ActivePreset>(),
+        (Mode::Live, _) => {
+            commands.remove_resource::<ActivePreset>();
+            follow_forecast(transitions.iter_mut(), Some(&mut haze));
+        }
     }
 }
 
@@ -306,6 +390,16 @@ fn play_controls(
     ui.checkbox(&mut play.showers, "as showers (cumulonimbus)");
     ui.add(egui::Slider::new(&mut play.wind_speed_m_s, 0.0..=30.0).text("wind, m/s"));
     ui.add(egui::Slider::new(&mut play.wind_from_deg, 0.0..=360.0).text("wind from, degrees"));
+    ui.add(
+        egui::Slider::new(&mut play.visibility_km, 0.1..=80.0)
+            .logarithmic(true)
+            .text("visibility, km"),
+    );
+    ui.add(egui::Slider::new(&mut play.fog, 0.0..=1.0).text("fog probability"));
+    ui.add(
+        egui::Slider::new(&mut play.temperature_c, -15.0..=30.0)
+            .text("temperature, °C (snow below about 1 °C at the camera)"),
+    );
     // Time of day in the forecast's local time, on the scene's current date.
     let offset = forecast.map_or(0.0, |f| f64::from(f.utc_offset_s));
     let local = clock.unix_seconds() + offset;
@@ -328,29 +422,41 @@ fn play_controls(
     });
 }
 
-/// In play mode, writes the sliders' weather onto the layers through the same mapping the
-/// forecasts go through, so a slider value looks like that forecast value would.
+/// In play mode without a preset, writes the sliders' weather onto the layers' transition
+/// targets through the same mapping the forecasts go through, so a slider value looks like
+/// that forecast value would, and moving a slider is a smooth change.
 fn drive_play_layers(
     panel: Res<PanelState>,
     clock: Res<SceneClock>,
     mapping: Option<Res<WeatherMapping>>,
-    mut layers: Query<(&LayerSlot, &mut CloudLayer)>,
+    mut layers: Query<(&LayerSlot, &mut LayerTransition)>,
+    mut haze: ResMut<HazeTransition>,
 ) {
-    if panel.mode != Mode::Play {
+    if panel.mode != Mode::Play || panel.preset.is_some() {
         return;
     }
     let rules = mapping.map_or_else(WeatherMapping::default, |m| *m);
     let mapped = rules.map(&panel.play.to_state(clock.instant()), BERN_GROUND_M);
-    for (slot, mut layer) in &mut layers {
+    for (slot, mut transition) in &mut layers {
         // `apply` leaves layers that are not weather-driven alone: map a driven copy.
         let mut updated = CloudLayer {
             weather_driven: true,
-            ..layer.clone()
+            ..transition.target.clone()
         };
         mapped.apply(*slot, &mut updated);
         updated.weather_driven = false;
-        if updated != *layer {
-            *layer = updated;
+        if updated != transition.target {
+            transition.target = updated;
+        }
+    }
+    if let Some(visibility_m) = mapped.haze_visibility_m() {
+        let target = bevy_cloudscape::layers::Haze {
+            visibility_m,
+            weather_driven: false,
+            ..haze.target.clone().unwrap_or_default()
+        };
+        if haze.target.as_ref() != Some(&target) {
+            haze.target = Some(target);
         }
     }
 }
@@ -387,11 +493,20 @@ fn inspector_window(world: &mut World) {
         .default_pos([right - 12.0, 12.0])
         .show(ctx, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| {
-                ui.label("Weather-driven layers are rewritten by the forecast; untick weather_driven to keep edits.");
+                ui.label(
+                    "The weather slots move to their transition's target: edit the target \
+                     (untick its weather_driven to keep edits from the forecast).",
+                );
                 for (entity, name) in &layers {
                     egui::CollapsingHeader::new(name)
                         .id_salt(entity)
-                        .show(ui, |ui| edit_component::<CloudLayer>(world, *entity, ui));
+                        .show(ui, |ui| {
+                            if world.get::<LayerTransition>(*entity).is_some() {
+                                edit_component::<LayerTransition>(world, *entity, ui);
+                            } else {
+                                edit_component::<CloudLayer>(world, *entity, ui);
+                            }
+                        });
                 }
                 for camera in &cameras {
                     egui::CollapsingHeader::new("camera: VolumetricClouds")

@@ -133,7 +133,8 @@ pub struct HeadlessShots {
     /// Images to write. One goes to [`ExampleArgs::out`]; more go into the folder
     /// [`ExampleArgs::out`] as `frame_000.png`, `frame_001.png`, …
     pub count: u32,
-    /// Frames between two shots, for the scene to settle after it changed (LUTs, layers).
+    /// Frames between two shots, for the scene to settle after it changed (LUTs, layers); at
+    /// least the clouds' [`accumulation_frames`].
     pub settle_frames: u32,
 }
 
@@ -231,14 +232,13 @@ fn capture_after_frames(
         return;
     }
     progress.frames += 1;
-    // The first image waits for the clouds to converge too (the warm-up counts toward it).
+    // Every image waits for the clouds to converge on what changed (the first one's warm-up
+    // counts toward it): a time-lapse step can change the whole sky.
+    let converged = clouds.iter().map(accumulation_frames).fold(1, u32::max);
     let due = if progress.shot == 0 {
-        clouds
-            .iter()
-            .map(accumulation_frames)
-            .fold(args.frames, u32::max)
+        converged.max(args.frames)
     } else {
-        shots.settle_frames.max(1)
+        converged.max(shots.settle_frames)
     };
     if progress.frames < due {
         return;

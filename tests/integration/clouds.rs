@@ -1217,3 +1217,110 @@ fn weather_map_matches_the_cpu_and_changes_the_cost_not_the_image() {
         assert!(t_error < 1e-3, "{name}: the map changed T by {t_error}");
     }
 }
+
+/// A transition picked anew halfway renders no frame-to-frame jump at the retarget larger than
+/// the largest a transition straight to either target makes: value and rate stay continuous.
+/// Cutting to the new target instead (the negative control) does jump.
+#[test]
+fn a_retargeted_transition_renders_no_jump() {
+    let size = UVec2::new(64, 36);
+    let (_textures, mut rig) = small_rig(size);
+    let mut scene = showcase_scenes().remove(0);
+    let start = layer(CloudKind::Cumulus, 0.1);
+    let middle = layer(CloudKind::Cumulus, 0.25);
+    let end = layer(CloudKind::Stratocumulus, 0.45);
+    const DURATION_S: f32 = 2.0;
+    const DT: f32 = 0.05;
+    const FRAMES: usize = 48;
+    // Halfway through the transition.
+    let retarget = (0.5 * DURATION_S / DT) as usize;
+    // The first frames of a new rig wait for the pipelines and the noise.
+    scene.layers = vec![start.clone()];
+    rig.set_scene(&scene);
+    rig.render(4);
+    // The frames of a transition from `start` to `first`, retargeted to `then` after
+    // `retarget` frames (with a transition, or cut when `cut`).
+    let mut play = |first: &CloudLayer, then: Option<&CloudLayer>, cut: bool| {
+        let mut layer = start.clone();
+        let mut transition = LayerTransition::new(first.clone()).with_duration(DURATION_S);
+        let mut frames = Vec::new();
+        for frame in 0..FRAMES {
+            if let Some(target) = then
+                && frame == retarget
+            {
+                transition.target = target.clone();
+                if cut {
+                    transition.duration_s = 0.0;
+                }
+            }
+            transition.step(&mut layer, DT);
+            scene.layers = vec![layer.clone()];
+            rig.set_scene(&scene);
+            frames.push(rig.render(1).0);
+        }
+        frames
+    };
+    let to_middle = play(&middle, None, false);
+    let to_end = play(&end, None, false);
+    let retargeted = play(&middle, Some(&end), false);
+    let cut = play(&middle, Some(&end), true);
+    // Frame-to-frame change: the RMS of the luminance difference over the mean luminance of
+    // the end state, one scale for every run.
+    let scale = to_end[FRAMES - 1].iter().map(luminance).sum::<f64>() / (size.x * size.y) as f64;
+    let change = |a: &[[f32; 3]], b: &[[f32; 3]]| {
+        let sum: f64 = a
+            .iter()
+            .zip(b)
+            .map(|(a, b)| (luminance(a) - luminance(b)).powi(2))
+            .sum();
+        (sum / a.len() as f64).sqrt() / scale
+    };
+    let changes = |frames: &[Vec<[f32; 3]>]| -> Vec<f64> {
+        frames
+            .windows(2)
+            .map(|pair| change(&pair[1], &pair[0]))
+            .collect()
+    };
+    let largest = |c: &[f64]| c.iter().copied().fold(0.0, f64::max);
+    let (middle_changes, end_changes) = (changes(&to_middle), changes(&to_end));
+    let straight = largest(&middle_changes).max(largest(&end_changes));
+    // Frame `retarget` is the first drawn toward the new target; `changes[i]` is frame i + 1
+    // against frame i.
+    let around = |c: &[f64]| largest(&c[retarget - 2..retarget + 3]);
+    let (retargeted_changes, cut_changes) = (changes(&retargeted), changes(&cut));
+    save_strip(
+        &output_dir().join("clouds_transition_retargeted.png"),
+        size,
+        &retargeted
+            .iter()
+            .step_by(6)
+            .map(Vec::as_slice)
+            .collect::<Vec<_>>(),
+    );
+    eprintln!(
+        "largest frame-to-frame change (RMS of luminance over the end state's mean): straight \
+         to the middle {:.4}, straight to the end {:.4}; around the retarget halfway: with the \
+         transition {:.4}, cut {:.4}; retargeted run overall {:.4}",
+        largest(&middle_changes),
+        largest(&end_changes),
+        around(&retargeted_changes),
+        around(&cut_changes),
+        largest(&retargeted_changes),
+    );
+    let moved = change(&retargeted[FRAMES - 1], &retargeted[0]);
+    // The change is spread over frames: the whole is more than twice the largest frame's.
+    assert!(
+        moved > 2.0 * straight,
+        "start to end {moved}, one frame {straight}"
+    );
+    assert!(
+        around(&retargeted_changes) <= straight,
+        "a jump at the retarget: {} > {straight}",
+        around(&retargeted_changes)
+    );
+    assert!(
+        around(&cut_changes) > straight,
+        "the test sees a cut: {} <= {straight}",
+        around(&cut_changes)
+    );
+}
