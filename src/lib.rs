@@ -8,10 +8,10 @@
 //! | stage | module | what it does |
 //! |---|---|---|
 //! | place and time | [`scene`] | [`scene::UtcInstant`], [`scene::Place`], the scene's [`scene::GeoOrigin`] and [`scene::SceneClock`]: what the weather and the sky both read |
-//! | weather | [`weather`] | meteoblue / Open-Meteo files to a [`weather::Forecast`], sampled into a [`weather::WeatherState`] |
+//! | weather | [`weather`] | meteoblue / Open-Meteo files to a [`weather::Forecast`], sampled into a [`weather::WeatherState`] and mapped onto layers; weather presets ([`weather::CloudPreset`]) |
 //! | sky | [`sky`] | where the sun is for a place and a UTC instant (NREL SPA), and the light it aims |
 //! | world | [`world`] | [`world::CloudWorld`]: the planet, its anchoring, the cloud noise and phase function, shared by every camera |
-//! | layers | [`layers`] | [`layers::CloudLayer`]: altitude, coverage, density, kind and profile, wind |
+//! | layers | [`layers`] | [`layers::CloudLayer`]: altitude, coverage, density, kind and profile, wind; [`layers::LayerTransition`] moves a layer smoothly to a target |
 //! | noise | [`render::noise`] | compute pass filling tileable 3D cloud-noise textures once |
 //! | march | [`render::march`] | fullscreen ray-march of the layers per camera, stopped by the depth prepass, composited in HDR |
 //! | shadow | [`render::shadow`] | the cloud shadow map along the sun, applied to the sun's light on every `StandardMaterial` |
@@ -26,6 +26,8 @@
 //! The docs cite sources by author and year:
 //!
 //! - Hillaire 2016, "Physically Based Sky, Atmosphere and Cloud Rendering in Frostbite".
+//! - Jennings et al. 2018, "Spatial variation of the rain–snow temperature threshold across the
+//!   Northern Hemisphere".
 //! - Karis 2014, "High Quality Temporal Supersampling".
 //! - Marshall & Palmer 1948, "The distribution of raindrops with size".
 //! - Pérez Martín 2022, "Aetherius: Real-Time Volumetric Cloud Generation Tool for Unity".

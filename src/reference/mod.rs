@@ -28,6 +28,7 @@
 
 pub mod blue_noise;
 pub mod composite;
+pub mod growth;
 pub mod haze;
 pub mod noise;
 pub mod render;

@@ -21,6 +21,8 @@
 pub mod composite;
 #[cfg(test)]
 mod contract;
+#[doc(hidden)]
+pub mod growth;
 pub mod haze;
 pub mod march;
 pub mod noise;

@@ -25,6 +25,14 @@
 //! into rates, bridges short gaps, clamps instants outside the data, and warns once per excursion;
 //! [`Sampler`] documents the rules. It does not allocate.
 //!
+//! # Mapping, presets and transitions
+//!
+//! [`mapping`] turns the sampled weather into the [`LayerSlot`] layers; between two forecast
+//! steps it blends the layers of both, so nothing steps at the hour. [`preset`] holds named skies
+//! ([`CloudPreset`]) that [`ActivePreset`] applies instead of the forecast. Both write the
+//! targets of the layers' [`LayerTransition`](crate::layers::LayerTransition)s, which move the
+//! layers there smoothly.
+//!
 //! # Example
 //!
 //! ```no_run

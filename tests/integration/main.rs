@@ -5,6 +5,7 @@
 mod clouds;
 #[path = "../../examples/common/mod.rs"]
 mod common;
+mod growth;
 mod harness;
 mod noise;
 mod shadow;

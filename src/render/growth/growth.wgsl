@@ -1,0 +1,81 @@
+// One step of the cloud-growth automaton (Dobashi et al. 2000): each cell's humid, activated and
+// cloud bits from its own and its neighbours' bits and three probabilities.
+// CPU twin, bit for bit: `src/reference/growth.rs` (the rules are in its docs).
+
+const HUM: u32 = 1u;
+const ACT: u32 = 2u;
+const CLD: u32 = 4u;
+
+// 32 bytes. Mirror in Rust: `GpuGrowthUniforms`.
+struct GrowthUniforms {
+    // Cells along x, y (horizontal) and z (up).
+    size: vec3<u32>,
+    // The step's number (part of every random number).
+    step: u32,
+    seed: u32,
+    // 24-bit evaporation threshold.
+    extinction: u32,
+    // 1 when `columns` holds one entry for every column, 0 for one entry in all.
+    per_column: u32,
+    pad0: u32,
+}
+
+@group(0) @binding(0) var<storage, read> cells_in: array<u32>;
+@group(0) @binding(1) var<storage, read_write> cells_out: array<u32>;
+// Per column (x fastest): the humidity and activation thresholds, 24-bit.
+@group(0) @binding(2) var<storage, read> columns: array<vec2<u32>>;
+@group(0) @binding(3) var<uniform> growth: GrowthUniforms;
+
+// PCG hash (Jarzynski & Olano 2020). Rust: `pcg`.
+fn pcg(v: u32) -> u32 {
+    let state = v * 747796405u + 2891336453u;
+    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+// The 24-bit random number of a cell for one bit. Rust: `cell_random`.
+fn cell_random(cell: u32, bit: u32) -> u32 {
+    return pcg(pcg(pcg(growth.seed ^ (bit * 0x9E3779B9u)) + growth.step) + cell) >> 8u;
+}
+
+fn index_of(p: vec3<u32>) -> u32 {
+    return p.x + growth.size.x * (p.y + growth.size.y * p.z);
+}
+
+// Whether the cell at `p + d` is activated: wrapping horizontally, false outside vertically.
+fn activated(p: vec3<u32>, d: vec3<i32>) -> bool {
+    let n = vec3<i32>(growth.size);
+    let q = vec3<i32>(p) + d;
+    if q.z < 0 || q.z >= n.z {
+        return false;
+    }
+    let wrapped = vec3<u32>(u32((q.x % n.x + n.x) % n.x), u32((q.y % n.y + n.y) % n.y), u32(q.z));
+    return (cells_in[index_of(wrapped)] & ACT) != 0u;
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn grow(@builtin(global_invocation_id) id: vec3<u32>) {
+    if any(id >= growth.size) {
+        return;
+    }
+    // The neighbours whose activation spreads: Rust `NEIGHBOURS`.
+    let f_act = activated(id, vec3(1, 0, 0)) || activated(id, vec3(-1, 0, 0))
+        || activated(id, vec3(0, 1, 0)) || activated(id, vec3(0, -1, 0))
+        || activated(id, vec3(0, 0, 1)) || activated(id, vec3(0, 0, -1))
+        || activated(id, vec3(2, 0, 0)) || activated(id, vec3(-2, 0, 0))
+        || activated(id, vec3(0, 2, 0)) || activated(id, vec3(0, -2, 0))
+        || activated(id, vec3(0, 0, -2));
+    let i = index_of(id);
+    var column = columns[0];
+    if growth.per_column != 0u {
+        column = columns[id.x + growth.size.x * id.y];
+    }
+    let cell = cells_in[i];
+    let hum = (cell & HUM) != 0u;
+    let act = (cell & ACT) != 0u;
+    let cld = (cell & CLD) != 0u;
+    let hum_next = (hum && !act) || cell_random(i, HUM) < column.x;
+    let act_next = (!act && hum && f_act) || cell_random(i, ACT) < column.y;
+    let cld_next = (cld || act) && !(cell_random(i, CLD) < growth.extinction);
+    cells_out[i] = select(0u, HUM, hum_next) | select(0u, ACT, act_next) | select(0u, CLD, cld_next);
+}

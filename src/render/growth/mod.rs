@@ -1,0 +1,197 @@
+//! The cloud-growth automaton on the GPU: one compute dispatch per step over a grid of cells,
+//! ping-ponging two storage buffers (`growth.wgsl`). The rules and the CPU twin that gives the
+//! same bits are in [`crate::reference::growth`].
+//!
+//! [`GrowthCompute`] owns the pipeline and the buffers and steps them on a [`RenderDevice`] and
+//! [`RenderQueue`]: the GPU tests and the bench drive it directly.
+
+use bevy::render::{
+    render_resource::{
+        BindGroup, BindGroupEntries, BindGroupLayout, BindGroupLayoutEntries, Buffer,
+        BufferDescriptor, BufferInitDescriptor, BufferUsages, CommandEncoderDescriptor,
+        ComputePassDescriptor, ComputePipeline, PipelineCompilationOptions,
+        PipelineLayoutDescriptor, RawComputePipelineDescriptor, ShaderModuleDescriptor,
+        ShaderSource, ShaderStages, ShaderType, UniformBuffer,
+        binding_types::{storage_buffer_read_only_sized, storage_buffer_sized, uniform_buffer},
+    },
+    renderer::{RenderDevice, RenderQueue},
+};
+
+use crate::reference::growth::GrowthGrid;
+
+/// The step's uniforms, laid out as `GrowthUniforms` in `growth.wgsl` (32 bytes).
+#[derive(ShaderType, Clone, Copy, Debug, Default)]
+pub(crate) struct GpuGrowthUniforms {
+    size: bevy::math::UVec3,
+    step: u32,
+    seed: u32,
+    extinction: u32,
+    per_column: u32,
+    pad0: u32,
+}
+
+/// Threads per workgroup along x and y (`@workgroup_size(8, 8, 1)`).
+const WORKGROUP: u32 = 8;
+
+/// The automaton's pipeline and buffers on one device.
+pub struct GrowthCompute {
+    size: [u32; 3],
+    pipeline: ComputePipeline,
+    layout: BindGroupLayout,
+    cells: [Buffer; 2],
+    columns: Buffer,
+    per_column: bool,
+    /// Which of `cells` holds the current bits.
+    current: usize,
+}
+
+impl GrowthCompute {
+    /// The pipeline, and the grid of `grid.size` cells holding `grid.cells`; `columns` are each
+    /// column's humidity and activation thresholds (one entry for every column, or one per
+    /// column, x fastest), as [`GrowthGrid::step`] takes them.
+    ///
+    /// # Panics
+    ///
+    /// When `columns` is empty or holds neither one entry nor one per column.
+    #[must_use]
+    pub fn new(device: &RenderDevice, grid: &GrowthGrid, columns: &[[u32; 2]]) -> Self {
+        let size = grid.size;
+        let column_count = (size[0] * size[1]) as usize;
+        assert!(
+            columns.len() == 1 || columns.len() == column_count,
+            "one threshold pair, or one per column"
+        );
+        let bytes =
+            |cells: &[u32]| -> Vec<u8> { cells.iter().flat_map(|c| c.to_le_bytes()).collect() };
+        let cell_bytes = (grid.cells.len() * 4) as u64;
+        let storage = BufferUsages::STORAGE | BufferUsages::COPY_SRC | BufferUsages::COPY_DST;
+        let cells = [
+            device.create_buffer_with_data(&BufferInitDescriptor {
+                label: Some("cloud growth cells a"),
+                contents: &bytes(&grid.cells),
+                usage: storage,
+            }),
+            device.create_buffer(&BufferDescriptor {
+                label: Some("cloud growth cells b"),
+                size: cell_bytes,
+                usage: storage,
+                mapped_at_creation: false,
+            }),
+        ];
+        let flat: Vec<u32> = columns.iter().flatten().copied().collect();
+        let columns_buffer = device.create_buffer_with_data(&BufferInitDescriptor {
+            label: Some("cloud growth columns"),
+            contents: &bytes(&flat),
+            usage: BufferUsages::STORAGE,
+        });
+        let layout = device.create_bind_group_layout(
+            "cloud growth layout",
+            &BindGroupLayoutEntries::sequential(
+                ShaderStages::COMPUTE,
+                (
+                    storage_buffer_read_only_sized(false, None),
+                    storage_buffer_sized(false, None),
+                    storage_buffer_read_only_sized(false, None),
+                    uniform_buffer::<GpuGrowthUniforms>(false),
+                ),
+            ),
+        );
+        let module = device.create_and_validate_shader_module(ShaderModuleDescriptor {
+            label: Some("growth.wgsl"),
+            source: ShaderSource::Wgsl(include_str!("growth.wgsl").into()),
+        });
+        let pipeline_layout = device.create_pipeline_layout(&PipelineLayoutDescriptor {
+            label: Some("cloud growth pipeline layout"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&RawComputePipelineDescriptor {
+            label: Some("cloud growth"),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("grow"),
+            compilation_options: PipelineCompilationOptions::default(),
+            cache: None,
+        });
+        Self {
+            size,
+            pipeline,
+            layout,
+            cells,
+            columns: columns_buffer,
+            per_column: columns.len() > 1,
+            current: 0,
+        }
+    }
+
+    /// Runs steps `first_step .. first_step + steps` with `seed` and the evaporation threshold
+    /// `extinction`, one dispatch each, and submits them.
+    pub fn step(
+        &mut self,
+        device: &RenderDevice,
+        queue: &RenderQueue,
+        seed: u32,
+        extinction: u32,
+        first_step: u32,
+        steps: u32,
+    ) {
+        let mut encoder = device.create_command_encoder(&CommandEncoderDescriptor {
+            label: Some("cloud growth"),
+        });
+        // One uniform buffer per step, so every dispatch of the submission sees its own step.
+        let mut keep: Vec<(UniformBuffer<GpuGrowthUniforms>, BindGroup)> = Vec::new();
+        for step in first_step..first_step + steps {
+            let mut uniforms = UniformBuffer::from(GpuGrowthUniforms {
+                size: self.size.into(),
+                step,
+                seed,
+                extinction,
+                per_column: u32::from(self.per_column),
+                pad0: 0,
+            });
+            uniforms.write_buffer(device, queue);
+            let (from, to) = (self.current, 1 - self.current);
+            let Some(binding) = uniforms.binding() else {
+                return;
+            };
+            let bind_group = device.create_bind_group(
+                "cloud growth bind group",
+                &self.layout,
+                &BindGroupEntries::sequential((
+                    self.cells[from].as_entire_binding(),
+                    self.cells[to].as_entire_binding(),
+                    self.columns.as_entire_binding(),
+                    binding,
+                )),
+            );
+            {
+                let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
+                    label: Some("cloud growth step"),
+                    timestamp_writes: None,
+                });
+                pass.set_pipeline(&self.pipeline);
+                pass.set_bind_group(0, &*bind_group, &[]);
+                pass.dispatch_workgroups(
+                    self.size[0].div_ceil(WORKGROUP),
+                    self.size[1].div_ceil(WORKGROUP),
+                    self.size[2],
+                );
+            }
+            keep.push((uniforms, bind_group));
+            self.current = to;
+        }
+        queue.submit([encoder.finish()]);
+    }
+
+    /// The buffer that holds the current bits (`u32` per cell, [`GrowthGrid::cells`] order).
+    #[must_use]
+    pub fn cells(&self) -> &Buffer {
+        &self.cells[self.current]
+    }
+
+    /// Cells along x, y and z.
+    #[must_use]
+    pub const fn size(&self) -> [u32; 3] {
+        self.size
+    }
+}
