@@ -4,7 +4,11 @@
 //! ```text
 //! cargo run --release --example bench -- [--width W] [--height H] [--frames N] [--out DIR] [--scene NAME] [--presets LIST] [--reference-steps N] [--no-jitter] [--effects-only] [--error-budget]
 //! cargo run --release --example bench -- --time-only [--presets LIST] [--sizes WxH,...] [--layers N,...] [--set FIELD=VALUE] [--scene NAME] [--out DIR]
+//! cargo run --release --example bench -- --growth [--frames N] [--out DIR]
 //! ```
+//!
+//! `--growth` times one step of the cloud-growth automaton (`render::growth`) at 64 × 64 × 16,
+//! the seed's 100 × 100 × 10, 128 × 128 × 16 and 256 × 256 × 16 cells, into `growth.csv`.
 //!
 //! Scenes: cumulus at noon, overcast stratus, sunset behind altocumulus, the camera inside a
 //! cumulus layer, and a grazing view to the horizon (`examples/common/scenes.rs`). Presets:
@@ -129,6 +133,10 @@ struct Args {
     /// by scene, size and reference steps): for runs that change only the presets.
     #[arg(long, value_name = "DIR")]
     reference_cache: Option<PathBuf>,
+    /// Time one step of the cloud-growth automaton at several grid sizes instead (writes
+    /// `growth.csv`: `width,length,depth,cells,ms_per_step`).
+    #[arg(long)]
+    growth: bool,
     /// Primary steps of the reference.
     #[arg(long, default_value_t = REFERENCE_STEPS,
           value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_PRIMARY_STEPS)))]
@@ -682,6 +690,65 @@ fn cached_reference(args: &Args, rig: &mut CloudRig, scene: &Scene) -> Result<Me
 /// `--time-only`: the cloud pass's cost of each selected preset in each selected scene, at each
 /// of `--sizes` and with each of `--layers` layer counts, appended to `times.csv` (written with
 /// its header when absent).
+/// Grid sizes the growth bench times: the seed's default field (Rosa 2013 §5.1.1: 100 × 100 ×
+/// 10) and powers of two up to the 256 × 256 × 16 a layer's weather map would use.
+const GROWTH_SIZES: [[u32; 3]; 4] = [[64, 64, 16], [100, 100, 10], [128, 128, 16], [256, 256, 16]];
+
+/// Times one automaton step per grid size: `--frames` × 4 steps submitted at once and read back,
+/// less a read-back alone, over the steps (the median of five such runs).
+fn time_growth(args: &Args) -> Result<(), String> {
+    use bevy::render::renderer::{RenderDevice, RenderQueue};
+    use bevy_cloudscape::{
+        reference::growth::{GrowthGrid, probability_threshold},
+        render::growth::GrowthCompute,
+    };
+    let mut app = common::headless::Headless::new(
+        UVec2::splat(2),
+        bevy::render::render_resource::TextureFormat::Rgba8UnormSrgb,
+        |_| {},
+    );
+    let device = app.render_world().resource::<RenderDevice>().clone();
+    let queue = app.render_world().resource::<RenderQueue>().clone();
+    let columns = [[probability_threshold(0.3), probability_threshold(0.001)]];
+    let extinction = probability_threshold(0.02);
+    let steps = 4 * args.frames;
+    let mut csv = String::from("width,length,depth,cells,ms_per_step\n");
+    for size in GROWTH_SIZES {
+        let grid = GrowthGrid::new(size);
+        let mut gpu = GrowthCompute::new(&device, &grid, &columns);
+        let mut step = 0;
+        let mut run = |gpu: &mut GrowthCompute, app: &mut common::headless::Headless, n: u32| {
+            let start = std::time::Instant::now();
+            gpu.step(&device, &queue, 1, extinction, step, n);
+            step += n;
+            app.read_buffer(gpu.cells(), 0, 4);
+            start.elapsed().as_secs_f64() * 1000.0
+        };
+        run(&mut gpu, &mut app, 4);
+        let mut per_step: Vec<f64> = (0..5)
+            .map(|_| {
+                let readback = run(&mut gpu, &mut app, 0);
+                (run(&mut gpu, &mut app, steps) - readback).max(0.0) / f64::from(steps)
+            })
+            .collect();
+        per_step.sort_by(f64::total_cmp);
+        let ms = per_step[2];
+        let cells = size.iter().product::<u32>();
+        println!(
+            "growth {}x{}x{} ({cells} cells): {ms:.3} ms per step",
+            size[0], size[1], size[2]
+        );
+        csv.push_str(&format!(
+            "{},{},{},{cells},{ms:.4}\n",
+            size[0], size[1], size[2]
+        ));
+    }
+    let path = args.out.join("growth.csv");
+    std::fs::write(&path, &csv).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    print!("{csv}");
+    Ok(())
+}
+
 fn time_only(args: &Args) -> Result<(), String> {
     let path = args.out.join("times.csv");
     let mut csv = match std::fs::read_to_string(&path) {
@@ -770,6 +837,9 @@ fn run(args: &Args) -> Result<(), String> {
         .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
     if args.time_only {
         return time_only(args);
+    }
+    if args.growth {
+        return time_growth(args);
     }
     let mut rig = CloudRig::new(args.size(), Msaa::Off, default());
     if args.effects_only {

@@ -57,10 +57,17 @@ pub const fn pcg(v: u32) -> u32 {
     (word >> 22) ^ word
 }
 
+/// The hash key of `bit` at `step` with `seed`, the same for every cell (the GPU gets it as a
+/// uniform).
+#[must_use]
+pub const fn step_key(seed: u32, step: u32, bit: u32) -> u32 {
+    pcg(pcg(seed ^ bit.wrapping_mul(0x9E37_79B9)).wrapping_add(step))
+}
+
 /// The 24-bit random number of `cell` for `bit` at `step` with `seed`. WGSL: `cell_random`.
 #[must_use]
 pub const fn cell_random(seed: u32, step: u32, cell: u32, bit: u32) -> u32 {
-    pcg(pcg(pcg(seed ^ bit.wrapping_mul(0x9E37_79B9)).wrapping_add(step)).wrapping_add(cell)) >> 8
+    pcg(step_key(seed, step, bit).wrapping_add(cell)) >> 8
 }
 
 /// The neighbours whose activation spreads to a cell: `(di, dj, dk)`, `k` up.

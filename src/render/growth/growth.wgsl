@@ -10,14 +10,12 @@ const CLD: u32 = 4u;
 struct GrowthUniforms {
     // Cells along x, y (horizontal) and z (up).
     size: vec3<u32>,
-    // The step's number (part of every random number).
-    step: u32,
-    seed: u32,
     // 24-bit evaporation threshold.
     extinction: u32,
+    // The step's hash keys for the humid, activated and cloud bits (Rust `step_key`).
+    keys: vec3<u32>,
     // 1 when `columns` holds one entry for every column, 0 for one entry in all.
     per_column: u32,
-    pad0: u32,
 }
 
 @group(0) @binding(0) var<storage, read> cells_in: array<u32>;
@@ -33,9 +31,20 @@ fn pcg(v: u32) -> u32 {
     return (word >> 22u) ^ word;
 }
 
-// The 24-bit random number of a cell for one bit. Rust: `cell_random`.
-fn cell_random(cell: u32, bit: u32) -> u32 {
-    return pcg(pcg(pcg(growth.seed ^ (bit * 0x9E3779B9u)) + growth.step) + cell) >> 8u;
+// The 24-bit random number of a cell for the bit whose step key is `key`. Rust: `cell_random`.
+fn cell_random(key: u32, cell: u32) -> u32 {
+    return pcg(key + cell) >> 8u;
+}
+
+// `v + d` wrapped into `0..n`, for |d| <= 2 <= n (no division).
+fn wrap(v: u32, d: i32, n: u32) -> u32 {
+    var s = i32(v) + d;
+    if s < 0 {
+        s += i32(n);
+    } else if s >= i32(n) {
+        s -= i32(n);
+    }
+    return u32(s);
 }
 
 fn index_of(p: vec3<u32>) -> u32 {
@@ -44,13 +53,12 @@ fn index_of(p: vec3<u32>) -> u32 {
 
 // Whether the cell at `p + d` is activated: wrapping horizontally, false outside vertically.
 fn activated(p: vec3<u32>, d: vec3<i32>) -> bool {
-    let n = vec3<i32>(growth.size);
-    let q = vec3<i32>(p) + d;
-    if q.z < 0 || q.z >= n.z {
+    let z = i32(p.z) + d.z;
+    if z < 0 || z >= i32(growth.size.z) {
         return false;
     }
-    let wrapped = vec3<u32>(u32((q.x % n.x + n.x) % n.x), u32((q.y % n.y + n.y) % n.y), u32(q.z));
-    return (cells_in[index_of(wrapped)] & ACT) != 0u;
+    let q = vec3<u32>(wrap(p.x, d.x, growth.size.x), wrap(p.y, d.y, growth.size.y), u32(z));
+    return (cells_in[index_of(q)] & ACT) != 0u;
 }
 
 @compute @workgroup_size(8, 8, 1)
@@ -74,8 +82,8 @@ fn grow(@builtin(global_invocation_id) id: vec3<u32>) {
     let hum = (cell & HUM) != 0u;
     let act = (cell & ACT) != 0u;
     let cld = (cell & CLD) != 0u;
-    let hum_next = (hum && !act) || cell_random(i, HUM) < column.x;
-    let act_next = (!act && hum && f_act) || cell_random(i, ACT) < column.y;
-    let cld_next = (cld || act) && !(cell_random(i, CLD) < growth.extinction);
+    let hum_next = (hum && !act) || cell_random(growth.keys.x, i) < column.x;
+    let act_next = (!act && hum && f_act) || cell_random(growth.keys.y, i) < column.y;
+    let cld_next = (cld || act) && !(cell_random(growth.keys.z, i) < growth.extinction);
     cells_out[i] = select(0u, HUM, hum_next) | select(0u, ACT, act_next) | select(0u, CLD, cld_next);
 }

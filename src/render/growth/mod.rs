@@ -17,17 +17,15 @@ use bevy::render::{
     renderer::{RenderDevice, RenderQueue},
 };
 
-use crate::reference::growth::GrowthGrid;
+use crate::reference::growth::{ACT, CLD, GrowthGrid, HUM, step_key};
 
 /// The step's uniforms, laid out as `GrowthUniforms` in `growth.wgsl` (32 bytes).
 #[derive(ShaderType, Clone, Copy, Debug, Default)]
 pub(crate) struct GpuGrowthUniforms {
     size: bevy::math::UVec3,
-    step: u32,
-    seed: u32,
     extinction: u32,
+    keys: bevy::math::UVec3,
     per_column: u32,
-    pad0: u32,
 }
 
 /// Threads per workgroup along x and y (`@workgroup_size(8, 8, 1)`).
@@ -143,11 +141,9 @@ impl GrowthCompute {
         for step in first_step..first_step + steps {
             let mut uniforms = UniformBuffer::from(GpuGrowthUniforms {
                 size: self.size.into(),
-                step,
-                seed,
                 extinction,
+                keys: [HUM, ACT, CLD].map(|bit| step_key(seed, step, bit)).into(),
                 per_column: u32::from(self.per_column),
-                pad0: 0,
             });
             uniforms.write_buffer(device, queue);
             let (from, to) = (self.current, 1 - self.current);
