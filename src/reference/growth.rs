@@ -196,7 +196,8 @@ pub fn next_cell(
     let hum_next = (hum && !act) || fires(HUM, thresholds.humidity);
     let act_next = (!act && hum && f_act) || fires(ACT, thresholds.activation);
     let cld_next = (cld || act) && !fires(CLD, thresholds.extinction);
-    (hum_next as u32) * HUM | (act_next as u32) * ACT | (cld_next as u32) * CLD
+    let bit = |set: bool, bit: u32| if set { bit } else { 0 };
+    bit(hum_next, HUM) | bit(act_next, ACT) | bit(cld_next, CLD)
 }
 
 #[cfg(test)]
