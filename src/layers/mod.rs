@@ -78,6 +78,7 @@
 //! Each kind's vertical profile is in [`DensityProfile::for_kind`].
 
 mod drift;
+mod growth;
 mod haze;
 mod kind;
 mod profile;
@@ -88,6 +89,9 @@ use bevy::prelude::{Component, Reflect, ReflectComponent, ReflectDefault};
 
 pub use drift::LayerDrift;
 pub(crate) use drift::drift_cloud_layers;
+pub use growth::{
+    CloudGrowth, GrowthProbabilities, GrowthSteering, NoiseMaker, covered_fraction, covered_regions,
+};
 pub use haze::Haze;
 pub use kind::{CloudKind, KindDefaults};
 pub use profile::{DensityProfile, ProfileInterpolation, ProfilePoint};
