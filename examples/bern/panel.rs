@@ -269,13 +269,14 @@ fn control_window(
             ui.label(fps.map_or("FPS: -".into(), |fps| format!("FPS: {fps:.1}")));
             // The cloud passes time themselves ("clouds" and each of its passes, "cloud_noise"); GPU times
             // appear where the device has timestamp queries.
-            for diagnostic in diagnostics.iter() {
-                let path = diagnostic.path().as_str();
-                if path.starts_with("render/cloud")
-                    && let Some(value) = diagnostic.smoothed()
-                {
-                    ui.label(format!("{path}: {value:.2} {}", diagnostic.suffix));
-                }
+            let mut passes: Vec<_> = diagnostics
+                .iter()
+                .filter(|d| d.path().as_str().starts_with("render/cloud"))
+                .filter_map(|d| Some((d.path().as_str(), d.smoothed()?, &d.suffix)))
+                .collect();
+            passes.sort_by_key(|(path, _, _)| *path);
+            for (path, value, suffix) in passes {
+                ui.label(format!("{path}: {value:.2} {suffix}"));
             }
         });
     captured.set_if_neq(UiCapturesKeyboard(ctx.egui_wants_keyboard_input()));
