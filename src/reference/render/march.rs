@@ -86,18 +86,29 @@ impl MarchResult {
     };
 }
 
-/// Primary steps across an interval `span_m` metres long of a ray whose intervals add up to
-/// `total_m` metres: the interval's share of [`MarchSettings::primary_steps`] (clamped to
-/// `1..=MAX_PRIMARY_STEPS`), in proportion to its length and rounded up (all of them for the
-/// only interval), so that the steps are a budget per ray however many layers it crosses; but
+/// How many of a ray's steps an interval from `start_m` to `end_m` calls for, in metres of
+/// steps at the camera: its length over the step's growth at its middle,
+/// `(end − start) / (1 + step_growth · (start + end) / 2)`, the midpoint rule for
+/// `∫ dt / (1 + step_growth · t)`. Steps grow with distance, so a far interval needs fewer per
+/// metre than a near one. Computed in f32, as on the GPU. WGSL twin: `interval_measure`.
+pub fn interval_measure(settings: &MarchSettings, start_m: f64, end_m: f64) -> f32 {
+    let (start, end) = (start_m as f32, end_m as f32);
+    let growth = (settings.step_growth as f32).max(0.0);
+    (end - start) / (1.0 + growth * (0.5 * (start + end)))
+}
+
+/// Primary steps across an interval `span_m` metres long whose [`interval_measure`] is
+/// `measure`, of a ray whose intervals' measures add up to `total`: the interval's share of
+/// [`MarchSettings::primary_steps`] (clamped to `1..=MAX_PRIMARY_STEPS`), in proportion to its
+/// measure and rounded up (all of them for the only interval), so that the steps are a budget per
+/// ray however many layers it crosses and a near interval is not starved by a long far one; but
 /// no more than one per [`MarchSettings::min_step_m`] (plus one). The counts are computed in f32,
 /// as on the GPU. WGSL twin: `interval_steps`.
-pub fn interval_steps(settings: &MarchSettings, span_m: f64, total_m: f64) -> u32 {
+pub fn interval_steps(settings: &MarchSettings, span_m: f64, measure: f32, total: f32) -> u32 {
     let budget = settings.primary_steps.clamp(1, MAX_PRIMARY_STEPS);
-    let (span, total) = (span_m as f32, total_m as f32);
     let mut steps = budget;
-    if span > 0.0 && total > span {
-        steps = ((budget as f32 * (span / total)).ceil() as u32).clamp(1, budget);
+    if measure > 0.0 && total > measure {
+        steps = ((budget as f32 * (measure / total)).ceil() as u32).clamp(1, budget);
     }
     if !is_positive(settings.min_step_m) || !is_positive(span_m) {
         return steps;
@@ -390,9 +401,10 @@ impl Ray<'_> {
     /// again.
     /// Backing up makes the first detail sample in a cloud lie uniformly within one step of its
     /// edge whatever the grid's phase, so the mean over jitters has no pattern tied to the grid.
-    fn march_interval(&mut self, start: f64, end: f64, total: f64) -> bool {
+    fn march_interval(&mut self, start: f64, end: f64, total: f32) -> bool {
         let settings = self.settings;
-        let steps = interval_steps(settings, end - start, total);
+        let measure = interval_measure(settings, start, end);
+        let steps = interval_steps(settings, end - start, measure, total);
         let growth = settings.step_growth.max(0.0);
         let beta = growth * (end - start) / (1.0 + growth * start);
         let n = f64::from(steps);
@@ -530,13 +542,13 @@ pub fn march_clouds(
         if !is_positive(end - start) {
             break;
         }
-        total += (end - start) as f32;
+        total += interval_measure(settings, start, end);
         t = end;
     }
     let mut t = 0.0;
     for _ in 0..=2 * layers.len() {
         let [start, end] = next_cloud_interval(layers, radius, camera_altitude_m, mu, t, t_end);
-        if !is_positive(end - start) || !ray.march_interval(start, end, f64::from(total)) {
+        if !is_positive(end - start) || !ray.march_interval(start, end, total) {
             break;
         }
         t = end;

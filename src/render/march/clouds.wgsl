@@ -258,15 +258,23 @@ fn integrate_step(ray: ptr<function, MarchRay>, t: f32, dt: f32, medium: Medium)
     add_opacity(ray, before - (*ray).transmittance, t);
 }
 
-// Primary steps across an interval span_m long of a ray whose intervals add up to total_m:
-// the interval's share of primary_steps, in proportion to its length and rounded up (all of
-// them for the only interval), but no more than one per min_step_m (plus one). The counts are
-// computed in f32 on both sides. Rust: `interval_steps`.
-fn interval_steps(span_m: f32, total_m: f32) -> u32 {
+// How many of a ray's steps the interval [start_m, end_m] calls for: its length over the step's
+// growth at its middle (the midpoint rule for the integral of dt / (1 + step_growth t)), in f32
+// on both sides. Rust: `interval_measure`.
+fn interval_measure(start_m: f32, end_m: f32) -> f32 {
+    let growth = max(clouds.step_growth, 0.0);
+    return (end_m - start_m) / (1.0 + growth * (0.5 * (start_m + end_m)));
+}
+
+// Primary steps across an interval span_m long whose measure is `measure`, of a ray whose
+// intervals' measures add up to `total`: the interval's share of primary_steps, in proportion
+// to its measure and rounded up (all of them for the only interval), but no more than one per
+// min_step_m (plus one). The counts are computed in f32 on both sides. Rust: `interval_steps`.
+fn interval_steps(span_m: f32, measure: f32, total: f32) -> u32 {
     let budget = clamp(clouds.primary_steps, 1u, MAX_PRIMARY_STEPS);
     var steps = budget;
-    if span_m > 0.0 && total_m > span_m {
-        steps = clamp(u32(ceil(f32(budget) * (span_m / total_m))), 1u, budget);
+    if measure > 0.0 && total > measure {
+        steps = clamp(u32(ceil(f32(budget) * (measure / total))), 1u, budget);
     }
     if !(clouds.min_step_m > 0.0) || !(span_m > 0.0) {
         return steps;
@@ -279,7 +287,7 @@ fn interval_steps(span_m: f32, total_m: f32) -> u32 {
 // (Schneider 2015; Pérez Martín 2022 "Optimization"); false once the cut-off is reached.
 // Rust: `Ray::march_interval`.
 fn march_interval(ray: ptr<function, MarchRay>, start: f32, end: f32, total: f32) -> bool {
-    let steps = interval_steps(end - start, total);
+    let steps = interval_steps(end - start, interval_measure(start, end), total);
     let growth = max(clouds.step_growth, 0.0);
     let beta = growth * (end - start) / (1.0 + growth * start);
     let n = f32(steps);
@@ -383,7 +391,7 @@ fn march_clouds(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter:
         if !(interval.y - interval.x > 0.0) {
             break;
         }
-        total += interval.y - interval.x;
+        total += interval_measure(interval.x, interval.y);
         t = interval.y;
     }
     t = 0.0;

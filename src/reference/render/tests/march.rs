@@ -261,18 +261,46 @@ fn a_ray_through_many_layers_shares_one_step_budget() {
         min_step_m: 0.0,
         ..MarchSettings::default()
     };
-    // Four intervals of 5 km, 5 km, 5 km and 15 km: 8, 8, 8 and 24 steps, 48 in all.
+    // Without step growth the measure is the length. Four intervals of 5 km, 5 km, 5 km and
+    // 15 km: 8, 8, 8 and 24 steps, 48 in all.
+    let even = MarchSettings {
+        step_growth: 0.0,
+        ..settings.clone()
+    };
     let spans = [5_000.0, 5_000.0, 5_000.0, 15_000.0];
-    let total: f64 = spans.iter().sum();
-    let steps: Vec<u32> = spans
+    let mut t = 0.0;
+    let intervals: Vec<(f64, f64)> = spans
         .iter()
-        .map(|&span| interval_steps(&settings, span, total))
+        .map(|&span| {
+            t += span;
+            (t - span, t)
+        })
         .collect();
-    assert_eq!(steps, [8, 8, 8, 24]);
+    let share = |settings: &MarchSettings| -> Vec<u32> {
+        let total: f32 = intervals
+            .iter()
+            .map(|&(a, b)| interval_measure(settings, a, b))
+            .sum();
+        intervals
+            .iter()
+            .map(|&(a, b)| interval_steps(settings, b - a, interval_measure(settings, a, b), total))
+            .collect()
+    };
+    assert_eq!(share(&even), [8, 8, 8, 24]);
     // Sixteen equal intervals: 3 steps each, not 48 each.
-    assert_eq!(interval_steps(&settings, 1_000.0, 16_000.0), 3);
+    assert_eq!(interval_steps(&even, 1_000.0, 1_000.0, 16_000.0), 3);
     // A sliver still gets a step.
-    assert_eq!(interval_steps(&settings, 1.0, 1e6), 1);
+    assert_eq!(interval_steps(&even, 1.0, 1.0, 1e6), 1);
+    // Steps grow with distance, so the near interval gets more than its share of the length:
+    // a layer the camera is in is not starved by a long one far away.
+    let grown = MarchSettings {
+        step_growth: 1e-4,
+        ..settings.clone()
+    };
+    let steps = share(&grown);
+    assert!(steps[0] > 8 && steps[3] < 24, "{steps:?}");
+    assert!(steps.windows(2).take(2).all(|w| w[0] > w[1]), "{steps:?}");
+    assert!(steps.iter().sum::<u32>() <= 48 + 4);
 }
 
 #[test]
@@ -283,16 +311,19 @@ fn short_intervals_get_fewer_steps() {
         ..MarchSettings::default()
     };
     // 355 m of fog seen 25° up from the ground: 18 steps of 20 m, not 48 of 7 m.
-    assert_eq!(interval_steps(&settings, 355.0, 355.0), 18);
-    assert_eq!(interval_steps(&settings, 5_000.0, 5_000.0), 48);
-    assert_eq!(interval_steps(&settings, 1.0, 1.0), 1);
-    assert_eq!(interval_steps(&settings, 0.0, 0.0), 48);
-    assert_eq!(interval_steps(&settings, f64::INFINITY, f64::INFINITY), 48);
+    assert_eq!(interval_steps(&settings, 355.0, 355.0, 355.0), 18);
+    assert_eq!(interval_steps(&settings, 5_000.0, 5_000.0, 5_000.0), 48);
+    assert_eq!(interval_steps(&settings, 1.0, 1.0, 1.0), 1);
+    assert_eq!(interval_steps(&settings, 0.0, 0.0, 0.0), 48);
+    assert_eq!(
+        interval_steps(&settings, f64::INFINITY, f32::INFINITY, f32::INFINITY),
+        48
+    );
     let off = MarchSettings {
         min_step_m: 0.0,
         ..settings.clone()
     };
-    assert_eq!(interval_steps(&off, 355.0, 355.0), 48);
+    assert_eq!(interval_steps(&off, 355.0, 355.0, 355.0), 48);
     // A homogeneous slab still matches its closed form with the floor on.
     let layer = slab(0.002);
     let floored = MarchSettings {
