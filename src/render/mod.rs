@@ -62,9 +62,10 @@ pub enum CloudQuality {
 #[require(DepthPrepass, Hdr)]
 pub struct VolumetricClouds {
     /// Steps along each view ray (1–1024): a budget for the whole ray, which the intervals where
-    /// it crosses layers share in proportion to their lengths, so a ray through several layers
-    /// costs no more steps than one through a single layer. Default 192 (`LOW` 160, `HIGH` 384,
-    /// `ULTRA` 768).
+    /// it crosses layers share in proportion to the steps each calls for (its length over
+    /// [`VolumetricClouds::step_growth`] at its middle, so a near interval gets more per metre
+    /// than a far one), and a ray through several layers costs no more steps than one through a
+    /// single layer. Default 192 (`LOW` 160, `HIGH` 384, `ULTRA` 768).
     pub primary_steps: u32,
     /// Steps of the light march toward the sun from each sample (0–64; 0 = unshadowed), over
     /// a light path up to 2 km long; a longer path (a low sun's) takes proportionally more, up
