@@ -3,6 +3,11 @@
 
 use bevy::prelude::*;
 
+/// Koschmieder's constant: `ln(1 / 0.02)`, for a 2 % contrast threshold. Extinction is
+/// `KOSCHMIEDER_CONSTANT / visibility` (Koschmieder 1924; WMO-No. 8, meteorological optical
+/// range). The f32 of the CPU twin's [`crate::reference::haze::KOSCHMIEDER_CONSTANT`].
+pub const KOSCHMIEDER_CONSTANT: f32 = crate::reference::haze::KOSCHMIEDER_CONSTANT as f32;
+
 /// The haze of the scene: aerosol whose density follows the meteorological visibility.
 /// Live-editable. With [`Haze::weather_driven`] on, the weather sets the visibility from the
 /// forecast.

@@ -94,7 +94,7 @@ pub(crate) use drift::drift_cloud_layers;
 pub use growth::{
     CloudGrowth, GrowthProbabilities, GrowthSteering, NoiseMaker, covered_fraction, covered_regions,
 };
-pub use haze::Haze;
+pub use haze::{Haze, KOSCHMIEDER_CONSTANT};
 pub use kind::{CloudKind, KindDefaults};
 pub use profile::{DensityProfile, ProfileInterpolation, ProfilePoint};
 pub(crate) use transition::run_transitions;

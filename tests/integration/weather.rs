@@ -17,6 +17,25 @@ fn scratch_assets(name: &str) -> PathBuf {
     dir
 }
 
+/// A headless app with the cloud plugins, reading assets from `dir` and watching it for
+/// changes, with `extra` added before it is finished.
+fn watching_app(dir: &Path, extra: impl FnOnce(&mut App)) -> App {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        AssetPlugin {
+            file_path: dir.to_string_lossy().into_owned(),
+            watch_for_changes_override: Some(true),
+            ..default()
+        },
+        CloudscapePlugin,
+    ));
+    extra(&mut app);
+    app.finish();
+    app.cleanup();
+    app
+}
+
 /// The bundled Bern forecast with every `lowclouds` value replaced by `percent`.
 fn bern_with_low_clouds(percent: f64) -> String {
     let text = include_str!("../../assets/weather/bern.json");
@@ -63,19 +82,9 @@ fn replacing_a_forecast_file_updates_the_weather_and_bad_files_keep_the_last_goo
     let file = dir.join("bern.json");
     std::fs::write(&file, bern_with_low_clouds(20.0)).unwrap();
 
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        AssetPlugin {
-            file_path: dir.to_string_lossy().into_owned(),
-            watch_for_changes_override: Some(true),
-            ..default()
-        },
-        CloudscapePlugin,
-    ))
-    .insert_resource(SceneClock::at("2021-05-04T10:00:00Z".parse().unwrap()));
-    app.finish();
-    app.cleanup();
+    let mut app = watching_app(&dir, |app| {
+        app.insert_resource(SceneClock::at("2021-05-04T10:00:00Z".parse().unwrap()));
+    });
     let source = WeatherSource::load(app.world().resource::<AssetServer>(), "bern.json", []);
     app.insert_resource(source);
     for slot in LayerSlot::ALL {
@@ -140,20 +149,10 @@ fn a_preset_file_drives_the_layers_and_a_broken_edit_keeps_the_last_good() {
     };
     std::fs::write(&file, sky("0.3")).unwrap();
 
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        AssetPlugin {
-            file_path: dir.to_string_lossy().into_owned(),
-            watch_for_changes_override: Some(true),
-            ..default()
-        },
-        CloudscapePlugin,
-    ))
-    .init_resource::<PresetFailures>()
-    .add_systems(Update, record_preset_failures);
-    app.finish();
-    app.cleanup();
+    let mut app = watching_app(&dir, |app| {
+        app.init_resource::<PresetFailures>()
+            .add_systems(Update, record_preset_failures);
+    });
     spawn_weather_layers(&mut app.world_mut().commands());
     app.world_mut().flush();
     let preset = app

@@ -93,10 +93,7 @@ pub use weather_layers::{WeatherLayers, layers_for_weather, map_weather, spawn_w
 pub const STANDARD_LEVEL_HEIGHTS_M: [f32; STANDARD_LEVELS_HPA.len()] =
     [1_457.0, 3_012.0, 5_574.0, 9_164.0];
 
-/// Koschmieder's constant: `ln(1 / 0.02)`, for a 2 % contrast threshold. Extinction is
-/// `KOSCHMIEDER_CONSTANT / visibility` (Koschmieder 1924; WMO-No. 8, meteorological optical
-/// range).
-pub const KOSCHMIEDER_CONSTANT: f32 = 3.912;
+pub use crate::layers::KOSCHMIEDER_CONSTANT;
 
 #[cfg(test)]
 mod tests;
