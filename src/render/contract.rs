@@ -76,10 +76,7 @@ fn rust_constants() -> Vec<(&'static str, Vec<f64>)> {
         ("MAX_PROFILE_POINTS", scalar(MAX_PROFILE_POINTS as f64)),
         ("MAX_FAR_COVERAGES", scalar(MAX_FAR_COVERAGES as f64)),
         ("FAR_BLEND_START", scalar(FAR_BLEND_START)),
-        (
-            "MAX_SCATTERING_OCTAVES",
-            scalar(MAX_SCATTERING_OCTAVES.into()),
-        ),
+        ("MIN_DIFFUSE_MU_SUN", scalar(MIN_DIFFUSE_MU_SUN)),
         ("MAX_PRIMARY_STEPS", scalar(MAX_PRIMARY_STEPS.into())),
         ("MAX_LIGHT_STEPS", scalar(MAX_LIGHT_STEPS.into())),
         ("LIGHT_SAMPLE_OFFSET", scalar(LIGHT_SAMPLE_OFFSET)),

@@ -76,8 +76,11 @@ pub struct VolumetricClouds {
     pub step_growth: f32,
     /// The march stops once the view transmittance falls below this (0–1). Default 0.01.
     pub transmittance_cutoff: f32,
-    /// Multiple-scattering octaves (Wrenninge 2013; 1 = single scattering only, up to 8).
-    pub multiple_scattering_octaves: u32,
+    /// Light scattered more than once: the δ-Eddington diffuse field of the sun and the sky in
+    /// each cloud (validated against DISORT, `validation/README.md`). Off, the clouds get
+    /// single scattering and a sky light that grows with height in the layer: cheaper by a few
+    /// operations per sample, and far too dark inside thick clouds. Default true.
+    pub multiple_scattering: bool,
     /// Jitter the ray start per pixel and frame (blue noise, animated with the golden ratio) to
     /// trade banding for fine noise, which [`VolumetricClouds::temporal_blend`] averages away.
     /// Default true.
@@ -173,15 +176,15 @@ impl VolumetricClouds {
     /// frame the rays go through another pixel of their 4 × 4 block, and the accumulation
     /// assembles the full resolution over sixteen frames ([`composite::TemporalUpsampling`]). A
     /// still view converges close to a full-resolution march; while the camera moves the clouds
-    /// are softer, each pixel taking new data only every sixteenth frame. It keeps all
-    /// scattering octaves: they cost arithmetic only, and dropping them darkens the clouds,
-    /// most in overcast. Measured time and error: `docs/performance.md`.
+    /// are softer, each pixel taking new data only every sixteenth frame. It keeps multiple
+    /// scattering: it costs arithmetic only, and dropping it darkens the clouds, most in
+    /// overcast. Measured time and error: `docs/performance.md`.
     pub const MEDIUM: Self = Self {
         primary_steps: 192,
         light_steps: 14,
         step_growth: 2.0e-5,
         transmittance_cutoff: 0.01,
-        multiple_scattering_octaves: 4,
+        multiple_scattering: true,
         jitter: true,
         resolution_scale: 0.25,
         haze_steps: 12,
@@ -264,7 +267,7 @@ impl VolumetricClouds {
     /// Each field is fixed as follows, and anything not listed is kept:
     ///
     /// - `primary_steps`: clamped to 1–1024; `light_steps`: at most 64;
-    ///   `multiple_scattering_octaves`: clamped to 1–8; `haze_steps`: clamped to 1–128;
+    ///   `haze_steps`: clamped to 1–128;
     ///   `weather_map_size`: at most 8192.
     /// - `step_growth`: a negative or non-finite value becomes 0 (even steps).
     /// - `transmittance_cutoff`: clamped to 0–1; NaN becomes the default 0.01.
@@ -279,16 +282,13 @@ impl VolumetricClouds {
         use crate::clean::{clamp_or, non_negative};
         use crate::reference::{
             haze::MAX_HAZE_STEPS,
-            render::{MAX_LIGHT_STEPS, MAX_PRIMARY_STEPS, MAX_SCATTERING_OCTAVES},
+            render::{MAX_LIGHT_STEPS, MAX_PRIMARY_STEPS},
             weather_map::MAX_WEATHER_MAP_SIZE,
         };
         let defaults = Self::MEDIUM;
 
         self.primary_steps = self.primary_steps.clamp(1, MAX_PRIMARY_STEPS);
         self.light_steps = self.light_steps.min(MAX_LIGHT_STEPS);
-        self.multiple_scattering_octaves = self
-            .multiple_scattering_octaves
-            .clamp(1, MAX_SCATTERING_OCTAVES);
         self.haze_steps = self.haze_steps.clamp(1, MAX_HAZE_STEPS);
         self.weather_map_size = self.weather_map_size.min(MAX_WEATHER_MAP_SIZE);
         self.step_growth = non_negative(self.step_growth);
@@ -370,7 +370,6 @@ mod tests {
         let inf = f32::INFINITY;
         check(|c| &mut c.primary_steps, &[(0, 1), (5000, 1024), (64, 64)]);
         check(|c| &mut c.light_steps, &[(0, 0), (65, 64)]);
-        check(|c| &mut c.multiple_scattering_octaves, &[(0, 1), (9, 8)]);
         check(|c| &mut c.haze_steps, &[(0, 1), (500, 128)]);
         check(|c| &mut c.weather_map_size, &[(0, 0), (10_000, 8192)]);
         check(

@@ -1,25 +1,22 @@
-//! Light in f64 (Hillaire 2016; Wrenninge 2013; Pérez Martín 2022, "Cloud Lighting"). WGSL twin:
-//! `src/render/march/light.wgsl`.
+//! Light in f64 (Joseph, Wiscombe & Weinman 1976; Toon et al. 1989; Nakajima & Tanaka 1988;
+//! Hillaire 2016). WGSL twin: `src/render/march/light.wgsl`.
 //!
-//! At each sample the source term is `σs (E_sun · Σᵢ bⁱ e^(−aⁱ τ) p(cⁱ g) + L_ambient(height))`:
-//! `τ` is the optical depth toward the sun from a short light march to the exit of the layer
-//! shell ([`sun_optical_depth`]), the sum over octaves is Wrenninge 2013's multiple-scattering
-//! approximation ([`multiple_scattering`], Pérez Martín 2022 "Multiple Scattering Approximation":
-//! a = 0.3, b = 0.75, c = 0.5, N = 4), `p` the dual-lobe Henyey-Greenstein phase
-//! ([`dual_lobe_phase`], Hillaire 2016) and the ambient sky radiance is interpolated between the
-//! bottom and top of the layer (Pérez Martín 2022, "Day / Night Cycle"). Each step integrates the source
-//! against the transmittance across the step analytically (Hillaire 2016, "Physically Based Sky,
-//! Atmosphere and Cloud Rendering in Frostbite"): `∫₀^dt e^(−σt x) S dx =
-//! S dt (1 − e^(−σt dt)) / (σt dt)`, with the last factor from [`mean_step_transmittance`], which
-//! stays exact as `σt → 0` instead of clamping `σt`.
+//! At each sample the source is [`sample_source`]: the sun's single scattering through the
+//! dual-lobe Henyey-Greenstein phase ([`dual_lobe_phase`], Hillaire 2016), with `τ` the optical
+//! depth toward the sun from a short light march to the exit of the layer shell
+//! ([`sun_optical_depth`]), and the δ-Eddington diffuse field of the sun and the sky in the
+//! column that holds the sample. The diffuse part and the light scattered outside the phase's
+//! forward peak are seen through the δ-scaled medium ([`EddingtonPhase`]), the peak through the
+//! true one. Each step integrates the source against the transmittance across the step
+//! analytically (Hillaire 2016, "Physically Based Sky, Atmosphere and Cloud Rendering in
+//! Frostbite"): `∫₀^dt e^(−σt x) S dx = S dt (1 − e^(−σt dt)) / (σt dt)`, with the last factor
+//! from [`mean_step_transmittance`], which stays exact as `σt → 0` instead of clamping `σt`.
+//! Validated against DISORT in `validation/disort/`.
 
 use super::{
     CloudTextures, MarchLayer, MarchSettings, add, altitude_along_ray, dot, ground_distance,
     horizontal_axes, intersect_altitude_sphere, layer_is_active, saturate, scale, total_extinction,
 };
-
-/// Most multiple-scattering octaves evaluated; larger [`MarchSettings::octaves`] are clamped.
-pub const MAX_SCATTERING_OCTAVES: u32 = 8;
 
 /// Most light-march steps; larger [`MarchSettings::light_steps`] are clamped.
 pub const MAX_LIGHT_STEPS: u32 = 64;
@@ -54,29 +51,168 @@ pub fn dual_lobe_phase(cos_theta: f64, g_forward: f64, g_back: f64, blend: f64) 
         + blend * henyey_greenstein(cos_theta, g_back)
 }
 
-/// Wrenninge 2013 ("Oz: the great and volumetric") multiple-scattering approximation, 1/sr:
-/// `Σᵢ bⁱ e^(−aⁱ τ) p(cⁱ g)` over [`MarchSettings::octaves`] octaves, the sun transmittance
-/// through optical depth `optical_depth` weighted by the dual-lobe phase at `cos_theta` (seed
-/// 002, "Multiple Scattering Approximation", Figure 45). Each octave lets more light through
-/// (a < 1) with a flatter phase (c < 1), standing in for light scattered more than once. Octave 0
-/// is single scattering. WGSL twin: `multiple_scattering`.
-pub fn multiple_scattering(settings: &MarchSettings, optical_depth: f64, cos_theta: f64) -> f64 {
-    let octaves = settings.octaves.clamp(1, MAX_SCATTERING_OCTAVES);
-    let (mut a, mut b, mut c) = (1.0, 1.0, 1.0);
-    let mut sum = 0.0;
-    for _ in 0..octaves {
-        let phase = dual_lobe_phase(
-            cos_theta,
-            c * settings.phase_g_forward,
-            c * settings.phase_g_back,
-            settings.phase_blend,
-        );
-        sum += b * (-a * optical_depth).exp() * phase;
-        a *= settings.ms_attenuation;
-        b *= settings.ms_contribution;
-        c *= settings.ms_eccentricity;
+/// Angle from the forward direction inside which the phase is the forward peak, degrees: the
+/// part of the phase above its value at this angle ([`EddingtonPhase::forward_cap`]) is single
+/// scattering seen through the true medium, the rest through the scaled one ([`sample_source`]).
+pub const FORWARD_PEAK_DEG: f64 = 30.0;
+
+/// Smallest sun cosine the diffuse field of [`sample_source`] uses: a grazing sun's beam still
+/// lights the layer through its top.
+pub const MIN_DIFFUSE_MU_SUN: f64 = 0.02;
+
+/// The δ-Eddington constants of the dual-lobe phase (Joseph, Wiscombe & Weinman 1976, "The
+/// Delta-Eddington Approximation for Radiative Flux Transfer"), computed once per march from
+/// [`MarchSettings`]' phase. WGSL twin: the uniforms `forward_fraction`, `scaled_asymmetry` and
+/// `forward_cap`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EddingtonPhase {
+    /// The forward peak's share of the scattered light, `f`: the phase's second moment,
+    /// `(1 − blend) g_f² + blend g_b²`. The scaled medium has extinction `(1 − f) σ`.
+    pub forward_fraction: f64,
+    /// The asymmetry of the phase without its peak, `g* = (g − f) / (1 − f)`.
+    pub scaled_asymmetry: f64,
+    /// The phase at [`FORWARD_PEAK_DEG`] from the forward direction, 1/sr.
+    pub forward_cap: f64,
+}
+
+/// [`EddingtonPhase`] of the settings' dual-lobe phase (asymmetries clamped to
+/// ±[`MAX_PHASE_G`], the blend to 0–1, as [`dual_lobe_phase`] does).
+pub fn eddington_phase(settings: &MarchSettings) -> EddingtonPhase {
+    let blend = saturate(settings.phase_blend);
+    let forward = settings.phase_g_forward.clamp(-MAX_PHASE_G, MAX_PHASE_G);
+    let back = settings.phase_g_back.clamp(-MAX_PHASE_G, MAX_PHASE_G);
+    let asymmetry = (1.0 - blend) * forward + blend * back;
+    let forward_fraction = (1.0 - blend) * forward * forward + blend * back * back;
+    EddingtonPhase {
+        forward_fraction,
+        scaled_asymmetry: (asymmetry - forward_fraction) / (1.0 - forward_fraction),
+        forward_cap: dual_lobe_phase(FORWARD_PEAK_DEG.to_radians().cos(), forward, back, blend),
     }
-    sum
+}
+
+/// Where a sample sits in its cloud, for [`sample_source`]: the vertical optical depths of the
+/// cloud above and below it (each layer's extinction at the sample times the distance to its
+/// top and to its base: exact in a homogeneous slab).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CloudColumn {
+    /// Optical depth up to the top, dimensionless.
+    pub above: f64,
+    /// Optical depth down to the base, dimensionless.
+    pub below: f64,
+}
+
+/// The light a sample sends toward the camera, per metre of the view ray and per unit of the
+/// lights: split by the transmittance it is seen through ([`sample_source`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SampleSource {
+    /// Seen through the true medium, `e^(−τ)`: the sun's forward peak scattered once.
+    pub direct: [f64; 3],
+    /// Seen through the scaled medium, `e^(−(1 − f) τ)`: the sun's light scattered outside the
+    /// peak and the diffuse field of the sun and the sky.
+    pub scaled: [f64; 3],
+}
+
+/// Everything [`sample_source`] needs to know about the lights and the view at one sample.
+#[derive(Clone, Copy, Debug)]
+pub struct SampleLights {
+    /// Optical depth toward the sun ([`sun_optical_depth`]); `None` when the sun does not reach
+    /// the sample (below the horizon, or no sun).
+    pub sun_optical_depth: Option<f64>,
+    /// Cosine of the sun's zenith angle at the sample.
+    pub mu_sun: f64,
+    /// Cosine between the view ray and the sun.
+    pub cos_sun: f64,
+    /// Cosine of the view ray's zenith angle (positive looking up).
+    pub mu_view: f64,
+}
+
+/// Source terms of one sample (σs the scattering, 1/m): the δ-Eddington
+/// source-function method (Joseph, Wiscombe & Weinman 1976; Toon et al. 1989, "Rapid
+/// calculation of radiative heating rates and photodissociation rates in inhomogeneous multiple
+/// scattering atmospheres") with its single scattering split as Nakajima & Tanaka 1988
+/// ("Algorithms for radiative intensity calculations in moderately thick atmospheres using a
+/// truncation approximation") do.
+///
+/// With `f`, `g*` from [`EddingtonPhase`] and `g = (1 − f) g* + f` the asymmetry, the scaled
+/// medium (extinction `(1 − f) σt`) holds a diffuse radiance `I₀ + μ I₁` (μ the cosine of the
+/// direction of travel from the downward vertical), whose two-stream equations with Marshak's
+/// boundary conditions have a closed form in the column's optical depths above (`τa`) and below
+/// (`τb`) the sample. For the sun (per unit illuminance `E`, `μ₀` the sun's cosine, `τs` the
+/// optical depth toward the sun, `e = e^(−(1 − f) τs)`, `k = 1/4π`):
+/// `I₁ = C₁ − 3μ₀ k e`, `I₀ = C₀ − (1 − g) C₁ τa − 3μ₀² k e`, with
+/// `C₁ = k (3μ₀² + 2μ₀ − e_T (3μ₀² − 2μ₀)) / (4/3 + (1 − g)(τa + τb))`, `e_T` the beam's scaled
+/// transmittance through the whole column, and `C₀ = k (3μ₀² + 2μ₀) − 2C₁/3`. For the sky (the
+/// isotropic radiances [`MarchSettings::ambient_top`] on the column's top and
+/// [`MarchSettings::ambient_bottom`] on its base): `I₁ = (A_t − A_b) / (4/3 + (1 − g)(τa + τb))`,
+/// `I₀ = A_t − (2/3 + (1 − g) τa) I₁`. The diffuse source is `I₀ + g* μ I₁`.
+///
+/// The sun's single scattering is split at [`EddingtonPhase::forward_cap`]: the peak above it,
+/// `E (p − p_cap)⁺ e^(−τs)`, is seen through the true medium; the rest, `E min(p, p_cap)
+/// e^(−(1 − f) τs)`, through the scaled one, so light scattered in the peak and then once more
+/// is kept. (The light of what lies behind the cloud, scattered in the peak, is added once per
+/// ray: [`march_clouds`](super::march_clouds).)
+///
+/// With [`MarchSettings::multiple_scattering`] off: single scattering `σs E p e^(−τs)` and the
+/// ambient `σs (A_b + (A_t − A_b) h)` at the height fraction `h` of the layer (Pérez Martín 2022,
+/// "Day / Night Cycle"), given as `ambient`, all seen through the true medium. WGSL twin:
+/// `sample_source`.
+pub fn sample_source(
+    settings: &MarchSettings,
+    phase: &EddingtonPhase,
+    scattering: f64,
+    column: CloudColumn,
+    ambient: [f64; 3],
+    lights: &SampleLights,
+) -> SampleSource {
+    let p = dual_lobe_phase(
+        lights.cos_sun,
+        settings.phase_g_forward,
+        settings.phase_g_back,
+        settings.phase_blend,
+    );
+    let sun = settings.sun_illuminance;
+    if !settings.multiple_scattering {
+        let single = lights
+            .sun_optical_depth
+            .map_or(0.0, |depth| p * (-depth).exp());
+        return SampleSource {
+            direct: std::array::from_fn(|c| scattering * sun[c] * single + ambient[c]),
+            scaled: [0.0; 3],
+        };
+    }
+    let f = phase.forward_fraction;
+    let g_star = phase.scaled_asymmetry;
+    let one_minus_g = (1.0 - g_star) * (1.0 - f);
+    let transport = 4.0 / 3.0 + one_minus_g * (column.above + column.below);
+    let mu = lights.mu_view;
+    let k = 0.25 / std::f64::consts::PI;
+    let (mut peak, mut wide, mut diffuse) = (0.0, 0.0, 0.0);
+    if let Some(depth) = lights.sun_optical_depth {
+        let mu0 = lights.mu_sun.max(MIN_DIFFUSE_MU_SUN);
+        let capped = p.min(phase.forward_cap);
+        let beam = (-(1.0 - f) * depth).exp();
+        peak = (p - capped) * (-depth).exp();
+        wide = capped * beam;
+        let through = (-(1.0 - f) * (depth + column.below / mu0)).exp();
+        let c1 =
+            k * (3.0 * mu0 * mu0 + 2.0 * mu0 - through * (3.0 * mu0 * mu0 - 2.0 * mu0)) / transport;
+        let c0 = k * (3.0 * mu0 * mu0 + 2.0 * mu0) - 2.0 / 3.0 * c1;
+        let i1 = c1 - 3.0 * mu0 * k * beam;
+        let i0 = c0 - one_minus_g * c1 * column.above - 3.0 * mu0 * mu0 * k * beam;
+        diffuse = (i0 + g_star * mu * i1).max(0.0);
+    }
+    let sky = |c: usize| {
+        let (top, bottom) = (settings.ambient_top[c], settings.ambient_bottom[c]);
+        let i1 = (top - bottom) / transport;
+        let i0 = top - (2.0 / 3.0 + one_minus_g * column.above) * i1;
+        (i0 + g_star * mu * i1).max(0.0)
+    };
+    SampleSource {
+        direct: sun.map(|e| scattering * e * peak),
+        scaled: std::array::from_fn(|c| {
+            scattering * (sun[c] * (wide + (1.0 - f) * diffuse) + (1.0 - f) * sky(c))
+        }),
+    }
 }
 
 /// Length of the light march from a point at `altitude_m` toward a sun at `mu_sun = dot(sun,

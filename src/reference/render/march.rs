@@ -7,11 +7,11 @@
 #[cfg(doc)]
 use super::ray_start_jitter;
 use super::{
-    CloudTextures, LIGHT_SAMPLE_OFFSET, MarchLayer, MarchSettings, SHADOW_MAP_NEAR_STEPS,
-    SHADOW_MAP_NEAR_TEXELS, add, altitude_along_ray, dot, ground_distance, horizontal_axes,
-    is_positive, layer_density, lerp, mean_step_transmittance, multiple_scattering,
-    next_cloud_interval, point_mu_sun, saturate, scale, scattering_albedo, step_warp,
-    sun_optical_depth, total_extinction,
+    CloudColumn, CloudTextures, EddingtonPhase, LIGHT_SAMPLE_OFFSET, MarchLayer, MarchSettings,
+    SHADOW_MAP_NEAR_STEPS, SHADOW_MAP_NEAR_TEXELS, SampleLights, add, altitude_along_ray, dot,
+    eddington_phase, ground_distance, horizontal_axes, is_positive, layer_density, layer_is_active,
+    lerp, mean_step_transmittance, next_cloud_interval, point_mu_sun, sample_source, saturate,
+    scale, scattering_albedo, step_warp, sun_optical_depth, total_extinction,
 };
 use crate::reference::shadow::ShadowMapImage;
 
@@ -52,12 +52,14 @@ pub fn dense_step_weight(x: f64) -> f64 {
 /// sample: the edge is found to 1/64 of that span.
 pub const EDGE_SEARCH_STEPS: u32 = 6;
 
-/// Extinction (1/m), scattering (1/m) and the ambient source (scattering × sky radiance, RGB)
-/// of the medium at one point.
+/// Extinction (1/m), scattering (1/m), the column around the point and the height-graded
+/// ambient source of the simple light (scattering × sky radiance, RGB) of the medium at one
+/// point.
 #[derive(Clone, Copy, Debug, Default)]
 struct Medium {
     extinction: f64,
     scattering: f64,
+    column: CloudColumn,
     ambient: [f64; 3],
 }
 
@@ -132,6 +134,8 @@ struct Ray<'a> {
     horizontal_direction: [f64; 2],
     /// Cosine of the angle between the view ray and the sun, for the phase function.
     cos_sun: f64,
+    /// The δ-Eddington constants of the settings' phase.
+    phase: EddingtonPhase,
     sun_on: bool,
     jitter: f64,
     /// Optical depth from the camera so far: summed, not multiplied into the transmittance,
@@ -140,9 +144,15 @@ struct Ray<'a> {
     /// `e^(−optical_depth)`.
     transmittance: f64,
     radiance: [f64; 3],
-    /// The last cloudy step's source over its extinction, `S / σt`: the radiance a medium like
-    /// it would add beyond the point where the march stops early (see [`Ray::march_interval`]).
+    /// The last cloudy step's source seen through the true medium over its extinction, `S /
+    /// σt`: with [`Ray::scaled_tail`], the radiance a medium like it would add beyond the point
+    /// where the march stops early (see [`Ray::march_interval`]).
     tail: [f64; 3],
+    /// The same for the source seen through the scaled medium, over the scaled extinction
+    /// `(1 − f) σt`.
+    scaled_tail: [f64; 3],
+    /// The part of [`Ray::radiance`] seen through the scaled medium.
+    scaled_radiance: [f64; 3],
     /// Σ (opacity a step adds) · (its distance), and Σ opacity: [`MarchResult::distance_m`].
     opacity_distance: f64,
     opacity: f64,
@@ -166,6 +176,55 @@ impl Ray<'_> {
     fn add_opacity(&mut self, opacity: f64, t: f64) {
         self.opacity_distance += opacity * t;
         self.opacity += opacity;
+    }
+
+    /// The transmittance of the δ-scaled medium so far, `e^(−(1 − f) τ)`.
+    fn scaled_transmittance(&self) -> f64 {
+        (-(1.0 - self.phase.forward_fraction) * self.optical_depth).exp()
+    }
+
+    /// Adds the light of what lies behind the medium scattered in the phase's forward peak,
+    /// once the ray is marched: the scaled medium lets `e^(−(1 − f) τ)` of it through, the true
+    /// one (which the compositor applies to the scene) `e^(−τ)`, so the ray gains `B (e^(−(1 −
+    /// f) τ) − e^(−τ))`. The peak is tens of degrees wide, so `B` is the mean radiance around
+    /// the ray's end, not the scene's pixel. Where the ray ends on a scene object or the ground
+    /// inside a cloud or fog (`t_end` finite, within the shell of a layer), `B` is the mean glow
+    /// of the scaled medium along the ray, its radiance over its opacity `1 − e^(−(1 − f) τ)`:
+    /// in a uniform medium the light in front of the object is then `1 − e^(−τ)` of the
+    /// medium's glow, so a black object at the visibility distance keeps Koschmieder's
+    /// contrast. Elsewhere `B` is the sky above for a
+    /// ray looking up and the ground below for one looking down
+    /// ([`MarchSettings::ambient_top`], [`MarchSettings::ambient_bottom`]), blended by the
+    /// view's cosine. Nothing without [`MarchSettings::multiple_scattering`], after an early
+    /// stop (nothing behind shows through) or without cloud on the ray.
+    fn add_background(&mut self, t_end: f64) {
+        if !self.settings.multiple_scattering
+            || !is_positive(self.transmittance)
+            || !is_positive(self.optical_depth)
+        {
+            return;
+        }
+        let scaled = self.scaled_transmittance();
+        let gain = scaled - self.transmittance;
+        let scaled_opacity = -(-(1.0 - self.phase.forward_fraction) * self.optical_depth).exp_m1();
+        let altitude = self.altitude(t_end);
+        let inside = t_end.is_finite()
+            && self.layers.iter().any(|layer| {
+                layer_is_active(layer) && altitude >= layer.base_m && altitude <= layer.top_m
+            });
+        let behind = saturate(0.5 + 0.5 * self.mu);
+        for c in 0..3 {
+            let background = if inside {
+                self.scaled_radiance[c] / scaled_opacity
+            } else {
+                lerp(
+                    self.settings.ambient_bottom[c],
+                    self.settings.ambient_top[c],
+                    behind,
+                )
+            };
+            self.radiance[c] += gain * background;
+        }
     }
 
     /// [`MarchResult::distance_m`] of the march so far.
@@ -211,6 +270,8 @@ impl Ray<'_> {
                 }
                 medium.extinction += sigma;
                 medium.scattering += sigma_s;
+                medium.column.above += sigma * (layer.top_m - altitude).max(0.0);
+                medium.column.below += sigma * (altitude - layer.base_m).max(0.0);
             }
         }
         medium
@@ -304,6 +365,9 @@ impl Ray<'_> {
         for c in 0..3 {
             self.radiance[c] = lerp(self.radiance[c], other.radiance[c], amount);
             self.tail[c] = lerp(self.tail[c], other.tail[c], amount);
+            self.scaled_tail[c] = lerp(self.scaled_tail[c], other.scaled_tail[c], amount);
+            self.scaled_radiance[c] =
+                lerp(self.scaled_radiance[c], other.scaled_radiance[c], amount);
         }
         self.opacity_distance = lerp(self.opacity_distance, other.opacity_distance, amount);
         self.opacity = lerp(self.opacity, other.opacity, amount);
@@ -316,13 +380,21 @@ impl Ray<'_> {
         let Medium {
             extinction,
             scattering,
+            column,
             ambient,
         } = *medium;
         let altitude = self.altitude(t);
         let footprint = t * settings.pixel_angle_rad;
-        let mut sun = 0.0;
+        let position = scale(self.direction, t);
+        let mu_sun = point_mu_sun(
+            settings,
+            self.camera_altitude_m,
+            self.up,
+            position,
+            altitude,
+        );
+        let mut sun_optical_depth_at = None;
         if self.sun_on {
-            let position = scale(self.direction, t);
             let light_march = |max_distance: f64, steps: u32| {
                 sun_optical_depth(
                     self.textures,
@@ -345,13 +417,6 @@ impl Ray<'_> {
                 .filter(|_| t >= settings.sun_from_shadow_map_m)
                 .and_then(|map| {
                     let near = SHADOW_MAP_NEAR_TEXELS * map.frame.texel_m();
-                    let mu_sun = point_mu_sun(
-                        settings,
-                        self.camera_altitude_m,
-                        self.up,
-                        position,
-                        altitude,
-                    );
                     let end = add(position, scale(settings.sun_direction, near));
                     let end_altitude =
                         altitude_along_ray(altitude, mu_sun, near, settings.planet_radius_m);
@@ -367,26 +432,38 @@ impl Ray<'_> {
             let optical_depth =
                 from_map.unwrap_or_else(|| light_march(f64::INFINITY, settings.light_steps));
             if optical_depth >= 0.0 {
-                sun = multiple_scattering(settings, optical_depth, self.cos_sun);
+                sun_optical_depth_at = Some(optical_depth);
             }
         }
-        // Hillaire 2016: ∫ T(x) S dx over the step = T · S · dt · (1 − e^(−σt dt)) / (σt dt).
+        let source = sample_source(
+            settings,
+            &self.phase,
+            scattering,
+            column,
+            ambient,
+            &SampleLights {
+                sun_optical_depth: sun_optical_depth_at,
+                mu_sun,
+                cos_sun: self.cos_sun,
+                mu_view: self.mu,
+            },
+        );
+        // Hillaire 2016: ∫ T(x) S dx over the step = T · S · dt · (1 − e^(−σt dt)) / (σt dt),
+        // once through the true medium and once through the scaled one.
+        let scaled = 1.0 - self.phase.forward_fraction;
         let x = extinction * dt;
         let weight = self.transmittance * dt * mean_step_transmittance(x);
-        for (((radiance, tail), illuminance), ambient) in self
-            .radiance
-            .iter_mut()
-            .zip(&mut self.tail)
-            .zip(settings.sun_illuminance)
-            .zip(ambient)
-        {
-            let source = scattering * illuminance * sun + ambient;
-            *radiance += weight * source;
-            *tail = source / extinction;
-        }
+        let scaled_weight =
+            (-scaled * self.optical_depth).exp() * dt * mean_step_transmittance(scaled * x);
         let before = self.transmittance;
         self.optical_depth += x;
         self.transmittance = (-self.optical_depth).exp();
+        for c in 0..3 {
+            self.radiance[c] += weight * source.direct[c] + scaled_weight * source.scaled[c];
+            self.scaled_radiance[c] += scaled_weight * source.scaled[c];
+            self.tail[c] = source.direct[c] / extinction;
+            self.scaled_tail[c] = source.scaled[c] / (scaled * extinction);
+        }
         self.add_opacity(before - self.transmittance, t);
     }
 
@@ -453,8 +530,10 @@ impl Ray<'_> {
                     // at a cut-off of 0.01: half the contrast of a target at the visibility
                     // distance in fog). Add it as if the medium went on like the last step, and
                     // let nothing behind show through.
-                    for (radiance, tail) in self.radiance.iter_mut().zip(self.tail) {
-                        *radiance += self.transmittance * tail;
+                    let scaled = self.scaled_transmittance();
+                    for c in 0..3 {
+                        self.radiance[c] +=
+                            self.transmittance * self.tail[c] + scaled * self.scaled_tail[c];
                     }
                     self.add_opacity(self.transmittance, boundary(k + 1));
                     self.transmittance = 0.0;
@@ -525,12 +604,15 @@ pub fn march_clouds(
         direction,
         horizontal_direction: [dot(direction, axes[0]), dot(direction, axes[1])],
         cos_sun: dot(direction, settings.sun_direction).clamp(-1.0, 1.0),
+        phase: eddington_phase(settings),
         sun_on: settings.sun_illuminance.iter().any(|&e| e > 0.0),
         jitter: saturate(jitter),
         optical_depth: 0.0,
         transmittance: 1.0,
         radiance: [0.0; 3],
         tail: [0.0; 3],
+        scaled_tail: [0.0; 3],
+        scaled_radiance: [0.0; 3],
         opacity_distance: 0.0,
         opacity: 0.0,
     };
@@ -553,6 +635,7 @@ pub fn march_clouds(
         }
         t = end;
     }
+    ray.add_background(t_end);
     MarchResult {
         radiance: ray.radiance,
         transmittance: ray.transmittance,

@@ -7,7 +7,7 @@ use super::BROAD_WARP_PERIODS;
 use super::{
     LIGHT_STEP_SPAN_M, PRECIPITATION_ABSORPTION, SHADOW_MAP_NEAR_STEPS, SHADOW_MAP_NEAR_TEXELS,
     coverage_height_scale, density_at, horizontal_axes, interval_steps, layer_coverage,
-    light_step_count, march_clouds, patch_fill, ray_start_jitter, shape_warp,
+    light_step_count, march_clouds, patch_fill, ray_start_jitter, sample_source, shape_warp,
 };
 #[cfg(doc)]
 use crate::reference::shadow::ShadowMapImage;
@@ -65,15 +65,10 @@ pub struct MarchSettings {
     /// The march stops once the view transmittance falls to this value (Pérez Martín 2022; Schneider
     /// 2015). 0 marches to the end. Default 0.01.
     pub transmittance_cutoff: f64,
-    /// Multiple-scattering octaves (Wrenninge 2013), clamped to `1..=MAX_SCATTERING_OCTAVES`;
-    /// 1 is single scattering. Default 4 (Pérez Martín 2022).
-    pub octaves: u32,
-    /// Extinction attenuation `a` per octave (Wrenninge 2013). Default 0.3 (Pérez Martín 2022).
-    pub ms_attenuation: f64,
-    /// Contribution `b` per octave (Wrenninge 2013). Default 0.75 (Pérez Martín 2022).
-    pub ms_contribution: f64,
-    /// Phase eccentricity attenuation `c` per octave (Wrenninge 2013). Default 0.5 (Pérez Martín 2022).
-    pub ms_eccentricity: f64,
+    /// Light scattered more than once ([`sample_source`]): the δ-Eddington diffuse field of the
+    /// sun and the sky. Off: single scattering and a sky light growing with height in the
+    /// layer. Default true.
+    pub multiple_scattering: bool,
     /// Asymmetry of the forward Henyey-Greenstein lobe (Hillaire 2016). Default 0.8.
     pub phase_g_forward: f64,
     /// Asymmetry of the backward lobe, negative. Default −0.3.
@@ -122,10 +117,7 @@ impl Default for MarchSettings {
             light_steps: 6,
             step_growth: 0.001,
             transmittance_cutoff: 0.01,
-            octaves: 4,
-            ms_attenuation: 0.3,
-            ms_contribution: 0.75,
-            ms_eccentricity: 0.5,
+            multiple_scattering: true,
             phase_g_forward: 0.8,
             phase_g_back: -0.3,
             phase_blend: 0.2,

@@ -2,9 +2,9 @@
 //! through a homogeneous slab that the march is tested against. CPU only: no WGSL twin.
 
 use super::{
-    CloudTextures, MAX_SCATTERING_OCTAVES, MarchLayer, MarchResult, MarchSettings, altitude_of,
-    dot, dual_lobe_phase, horizontal_axes, layer_is_active, mean_step_transmittance,
-    scattering_albedo, sun_optical_depth, total_extinction,
+    CloudTextures, MarchLayer, MarchResult, MarchSettings, altitude_of, dot, dual_lobe_phase,
+    horizontal_axes, layer_is_active, mean_step_transmittance, scattering_albedo,
+    sun_optical_depth, total_extinction,
 };
 
 /// Cloud extinction coefficient, 1/m, at `position_m` (world-space metres relative to the
@@ -35,8 +35,8 @@ pub fn is_in_cloud(
 
 /// Fraction of direct sunlight reaching `position_m` (relative to the camera) through the
 /// clouds, 0–1: `e^(−τ)` of the light march ([`sun_optical_depth`]) of the layers that hold the
-/// point, 0 in the planet's shadow, 1 outside every layer. Single scattering only: the
-/// multiple-scattering octaves are a lighting approximation, not a transmittance.
+/// point, 0 in the planet's shadow, 1 outside every layer: the direct beam, without the light
+/// scattered toward it.
 pub fn transmittance_to_sun(
     textures: &CloudTextures,
     settings: &MarchSettings,
@@ -66,13 +66,14 @@ pub fn transmittance_to_sun(
 
 /// Closed form of the march for a homogeneous slab: `layer` with coverage 1, shape strength 0
 /// and a flat profile of 1 (constant extinction `σ` from base to top), seen from a camera below
-/// it looking straight up along [`MarchSettings::camera_up`], lit by the sun and the ambient sky.
+/// it looking straight up along [`MarchSettings::camera_up`], lit by the sun and the ambient sky,
+/// with [`MarchSettings::multiple_scattering`] off (whose value it ignores).
 ///
 /// With `u` the height above the base, `H` the thickness, `μs = dot(sun, up) > 0`, `σs = albedo
 /// · σ`, and the light march reaching the top along the sun (`(H − u) / μs` in the plane-parallel
 /// limit): `T = e^(−σH)` and
-/// `L = Σᵢ bⁱ pᵢ E σs ∫₀^H e^(−σu) e^(−aⁱ σ (H − u) / μs) du + σs ∫₀^H e^(−σu) A(u) du` with
-/// `A` linear from the bottom to the top ambient. With `k = aⁱ / μs` the first integral is
+/// `L = p E σs ∫₀^H e^(−σu) e^(−σ (H − u) / μs) du + σs ∫₀^H e^(−σu) A(u) du` with
+/// `A` linear from the bottom to the top ambient. With `k = 1 / μs` the first integral is
 /// `e^(−σH) H f(σH (k − 1))` for `k ≥ 1` and `e^(−kσH) H f(σH (1 − k))` otherwise, and the second
 /// is `albedo (A_b (1 − e^(−σH)) + (A_t − A_b)(f(σH) − e^(−σH)))`, `f` being
 /// [`mean_step_transmittance`] and the last difference a series for small `σH`: stable for
@@ -93,29 +94,22 @@ pub fn homogeneous_slab(settings: &MarchSettings, layer: &MarchLayer) -> MarchRe
     let transmittance = (-x).exp();
     let mu_sun = dot(settings.sun_direction, settings.camera_up).clamp(-1.0, 1.0);
     let f = mean_step_transmittance;
-    // Σᵢ bⁱ pᵢ ∫ e^(−σu) e^(−aⁱσ(H−u)/μs) du, times σ.
+    // p ∫ e^(−σu) e^(−σ(H−u)/μs) du, times σ.
     let mut sun = 0.0;
     if mu_sun > 0.0 {
-        let octaves = settings.octaves.clamp(1, MAX_SCATTERING_OCTAVES);
-        let (mut a, mut b, mut c) = (1.0, 1.0, 1.0);
-        for _ in 0..octaves {
-            let phase = dual_lobe_phase(
-                mu_sun,
-                c * settings.phase_g_forward,
-                c * settings.phase_g_back,
-                settings.phase_blend,
-            );
-            let k = a / mu_sun;
-            let integral = if k >= 1.0 {
-                transmittance * x * f(x * (k - 1.0))
-            } else {
-                (-k * x).exp() * x * f(x * (1.0 - k))
-            };
-            sun += b * phase * integral;
-            a *= settings.ms_attenuation;
-            b *= settings.ms_contribution;
-            c *= settings.ms_eccentricity;
-        }
+        let phase = dual_lobe_phase(
+            mu_sun,
+            settings.phase_g_forward,
+            settings.phase_g_back,
+            settings.phase_blend,
+        );
+        let k = 1.0 / mu_sun;
+        let integral = if k >= 1.0 {
+            transmittance * x * f(x * (k - 1.0))
+        } else {
+            (-k * x).exp() * x * f(x * (1.0 - k))
+        };
+        sun = phase * integral;
     }
     let ambient_shape = ambient_gradient_integral(x);
     let opacity = -(-x).exp_m1();

@@ -6,6 +6,7 @@ use crate::reference::noise::{NoiseRecipe, downsample_3d, quantize_noise};
 use std::sync::OnceLock;
 
 mod density;
+mod disort;
 mod march;
 
 /// Small textures (the default recipe's channels at 16³, 8³ and 32²): the march samples them
@@ -38,13 +39,13 @@ fn slab(extinction: f64) -> MarchLayer {
     layer
 }
 
-/// Sun at `elevation_deg` above the horizon toward −z, one octave, no cut-off, no jitter.
+/// Sun at `elevation_deg` above the horizon toward −z, single scattering, no cut-off, no jitter.
 fn slab_settings(steps: u32, elevation_deg: f64) -> MarchSettings {
     let e = elevation_deg.to_radians();
     MarchSettings {
         primary_steps: steps,
         sun_direction: [0.0, e.sin(), -e.cos()],
-        octaves: 1,
+        multiple_scattering: false,
         transmittance_cutoff: 0.0,
         jitter: false,
         ..MarchSettings::default()

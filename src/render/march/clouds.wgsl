@@ -5,13 +5,13 @@
 #import bevy_cloudscape::composite::{FAR_AWAY, NO_HIT, ground_distance}
 #import bevy_cloudscape::cloud_parameters::{cloud_layers, clouds}
 #import bevy_cloudscape::cloud_geometry::{
-    altitude_along_ray, cloud_layer_count, horizontal_axes, next_cloud_interval, saturate,
-    step_warp,
+    altitude_along_ray, cloud_layer_count, horizontal_axes, layer_is_active, next_cloud_interval,
+    saturate, step_warp,
 }
 #import bevy_cloudscape::cloud_density::{layer_density, scattering_albedo, total_extinction}
 #import bevy_cloudscape::cloud_light::{
     LIGHT_SAMPLE_OFFSET, SHADOW_MAP_NEAR_STEPS, SHADOW_MAP_NEAR_TEXELS, mean_step_transmittance,
-    multiple_scattering, point_mu_sun, sun_optical_depth,
+    point_mu_sun, sample_source, sun_optical_depth,
 }
 #import bevy_cloudscape::cloud_shadow::{map_sun_optical_depth, shadow_map_covers, shadow_map_uv}
 
@@ -35,7 +35,8 @@
 // The module docs there explain the geometry, the density model and the lighting, with their
 // sources:
 // - Hillaire 2016, "Physically Based Sky, Atmosphere and Cloud Rendering in Frostbite";
-// - Wrenninge 2013, "Oz: the great and volumetric" (multiple-scattering octaves);
+// - Joseph, Wiscombe & Weinman 1976, "The Delta-Eddington Approximation for Radiative Flux
+//   Transfer" (the diffuse light);
 // - Schneider 2015, "The real-time volumetric cloudscapes of Horizon Zero Dawn";
 // - Pérez Martín 2022 (Aetherius): "Density Model", "Cloud Lighting", "Multiple Scattering
 //   Approximation", "Atmosphere", "Optimization".
@@ -77,6 +78,11 @@ struct MarchRay {
     // The last cloudy step's source over its extinction: what a medium like it would add beyond
     // an early stop (Rust: `Ray::tail`).
     tail: vec3<f32>,
+    // The same for the source seen through the scaled medium, over the scaled extinction
+    // (Rust: `Ray::scaled_tail`).
+    scaled_tail: vec3<f32>,
+    // The part of `radiance` seen through the scaled medium (Rust: `Ray::scaled_radiance`).
+    scaled_radiance: vec3<f32>,
     // Sum of (opacity a step adds) * (its distance), and sum of opacity (Rust: `Ray::add_opacity`).
     opacity_distance: f32,
     opacity: f32,
@@ -97,6 +103,35 @@ fn add_opacity(ray: ptr<function, MarchRay>, opacity: f32, t: f32) {
     (*ray).opacity += opacity;
 }
 
+// Rust: `Ray::scaled_transmittance`.
+fn scaled_transmittance(ray: ptr<function, MarchRay>) -> f32 {
+    return exp(-(1.0 - clouds.forward_fraction) * (*ray).optical_depth);
+}
+
+// The light of what lies behind the medium scattered in the phase's forward peak, B (T* - T): B
+// the scaled medium's mean glow along the ray where the ray ends on the ground or a scene object
+// inside it, the sky above or the ground below otherwise. Rust: `Ray::add_background` (its docs say why).
+fn add_background(ray: ptr<function, MarchRay>, t_end: f32) {
+    if clouds.multiple_scattering == 0u || !((*ray).transmittance > 0.0) || !((*ray).optical_depth > 0.0) {
+        return;
+    }
+    let scaled = scaled_transmittance(ray);
+    let gain = scaled - (*ray).transmittance;
+    var background = mix(clouds.ambient_bottom.xyz, clouds.ambient_top.xyz, saturate(0.5 + 0.5 * (*ray).mu));
+    var inside = false;
+    if t_end < FAR_AWAY {
+        let altitude = ray_altitude(ray, t_end);
+        for (var i = 0u; i < cloud_layer_count(); i++) {
+            let layer = cloud_layers[i];
+            inside = inside || (layer_is_active(layer) && altitude >= layer.base_m && altitude <= layer.top_m);
+        }
+    }
+    if inside {
+        background = (*ray).scaled_radiance / max(1.0 - scaled, 1e-6);
+    }
+    (*ray).radiance += gain * background;
+}
+
 // Rust: `Ray::altitude`.
 fn ray_altitude(ray: ptr<function, MarchRay>, t: f32) -> f32 {
     return altitude_along_ray((*ray).camera_altitude_m, (*ray).mu, t, clouds.planet_radius_m);
@@ -113,6 +148,10 @@ fn cheap_extinction(ray: ptr<function, MarchRay>, t: f32) -> f32 {
 struct Medium {
     extinction: f32,
     scattering: f32,
+    // Vertical optical depths of the column up to the layer tops and down to the bases.
+    column_above: f32,
+    column_below: f32,
+    // The height-graded sky light of the single-scattering light.
     ambient: vec3<f32>,
 }
 
@@ -121,7 +160,7 @@ fn ray_medium(ray: ptr<function, MarchRay>, t: f32) -> Medium {
     let altitude = ray_altitude(ray, t);
     let horizontal = (*ray).horizontal_direction * t;
     let footprint = t * clouds.pixel_angle_rad;
-    var medium = Medium(0.0, 0.0, vec3<f32>(0.0));
+    var medium = Medium(0.0, 0.0, 0.0, 0.0, vec3<f32>(0.0));
     let count = cloud_layer_count();
     for (var i = 0u; i < count; i++) {
         let layer = cloud_layers[i];
@@ -133,6 +172,8 @@ fn ray_medium(ray: ptr<function, MarchRay>, t: f32) -> Medium {
             medium.ambient += sigma_s * mix(clouds.ambient_bottom.xyz, clouds.ambient_top.xyz, height);
             medium.extinction += sigma;
             medium.scattering += sigma_s;
+            medium.column_above += sigma * max(layer.top_m - altitude, 0.0);
+            medium.column_below += sigma * max(altitude - layer.base_m, 0.0);
         }
     }
     return medium;
@@ -209,6 +250,8 @@ fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32, clear_from: f32) -
         (*ray).transmittance = exp(-(*ray).optical_depth);
         (*ray).radiance = mix((*ray).radiance, one.radiance, amount);
         (*ray).tail = mix((*ray).tail, one.tail, amount);
+        (*ray).scaled_tail = mix((*ray).scaled_tail, one.scaled_tail, amount);
+        (*ray).scaled_radiance = mix((*ray).scaled_radiance, one.scaled_radiance, amount);
         (*ray).opacity_distance = mix((*ray).opacity_distance, one.opacity_distance, amount);
         (*ray).opacity = mix((*ray).opacity, one.opacity, amount);
     }
@@ -221,19 +264,16 @@ fn integrate_step(ray: ptr<function, MarchRay>, t: f32, dt: f32, medium: Medium)
     let altitude = ray_altitude(ray, t);
     let footprint = t * clouds.pixel_angle_rad;
     let extinction = medium.extinction;
-    let scattering = medium.scattering;
-    let ambient = medium.ambient;
-    var sun = 0.0;
+    let position = (*ray).direction * t;
+    let mu_sun = point_mu_sun((*ray).camera_altitude_m, (*ray).up, position, altitude);
+    var optical_depth = -1.0;
     if (*ray).sun_on {
-        let position = (*ray).direction * t;
         // A far sample marches only the first texels toward the sun and reads the rest of the
-        // way from the shadow map, where the map covers it (Rust: `Ray::step`).
-        var optical_depth = 0.0;
+        // way from the shadow map, where the map covers it (Rust: `Ray::integrate`).
         let near = SHADOW_MAP_NEAR_TEXELS * clouds.shadow_map_range_m.z;
         let end = position + clouds.sun_direction.xyz * near;
         let uv = shadow_map_uv(end);
         if t >= clouds.sun_from_shadow_map_m && shadow_map_covers(uv) {
-            let mu_sun = point_mu_sun((*ray).camera_altitude_m, (*ray).up, position, altitude);
             let end_altitude = altitude_along_ray(altitude, mu_sun, near, clouds.planet_radius_m);
             optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, near, min(clouds.light_steps, SHADOW_MAP_NEAR_STEPS), LIGHT_SAMPLE_OFFSET);
             if optical_depth >= 0.0 {
@@ -242,19 +282,21 @@ fn integrate_step(ray: ptr<function, MarchRay>, t: f32, dt: f32, medium: Medium)
         } else {
             optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, FAR_AWAY, clouds.light_steps, LIGHT_SAMPLE_OFFSET);
         }
-        if optical_depth >= 0.0 {
-            sun = multiple_scattering(optical_depth, (*ray).cos_sun);
-        }
     }
-    // Hillaire 2016: the integral of T S over the step is T S dt (1 - exp(-x)) / x.
+    let source = sample_source(medium.scattering, medium.column_above, medium.column_below, medium.ambient, optical_depth, mu_sun, (*ray).cos_sun, (*ray).mu);
+    // Hillaire 2016: the integral of T S over the step is T S dt (1 - exp(-x)) / x, once
+    // through the true medium and once through the scaled one.
+    let scaled = 1.0 - clouds.forward_fraction;
     let x = extinction * dt;
     let weight = (*ray).transmittance * dt * mean_step_transmittance(x);
-    let source = scattering * clouds.sun_illuminance.xyz * sun + ambient;
-    (*ray).radiance += weight * source;
-    (*ray).tail = source / extinction;
+    let scaled_weight = exp(-scaled * (*ray).optical_depth) * dt * mean_step_transmittance(scaled * x);
     let before = (*ray).transmittance;
     (*ray).optical_depth += x;
     (*ray).transmittance = exp(-(*ray).optical_depth);
+    (*ray).radiance += weight * source.direct + scaled_weight * source.scaled;
+    (*ray).scaled_radiance += scaled_weight * source.scaled;
+    (*ray).tail = source.direct / extinction;
+    (*ray).scaled_tail = source.scaled / (scaled * extinction);
     add_opacity(ray, before - (*ray).transmittance, t);
 }
 
@@ -333,7 +375,7 @@ fn march_interval(ray: ptr<function, MarchRay>, start: f32, end: f32, total: f32
             if (*ray).transmittance <= clouds.transmittance_cutoff {
                 // The light the rest of the medium would add, as if it went on like the last
                 // step; nothing behind shows through (Rust: `Ray::march_interval`).
-                (*ray).radiance += (*ray).transmittance * (*ray).tail;
+                (*ray).radiance += (*ray).transmittance * (*ray).tail + scaled_transmittance(ray) * (*ray).scaled_tail;
                 add_opacity(ray, (*ray).transmittance, tb);
                 (*ray).transmittance = 0.0;
                 return false;
@@ -379,6 +421,8 @@ fn march_clouds(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter:
         1.0,
         vec3<f32>(0.0),
         vec3<f32>(0.0),
+        vec3<f32>(0.0),
+        vec3<f32>(0.0),
         0.0,
         0.0,
     );
@@ -402,6 +446,7 @@ fn march_clouds(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter:
         }
         t = interval.y;
     }
+    add_background(&ray, t_end);
     var distance = FAR_AWAY;
     if ray.opacity > 0.0 {
         distance = ray.opacity_distance / ray.opacity;

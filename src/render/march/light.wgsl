@@ -1,8 +1,8 @@
 #define_import_path bevy_cloudscape::cloud_light
 
-// Light of the cloud march (Hillaire 2016; Wrenninge 2013; Pérez Martín 2022 "Cloud Lighting"):
-// the phase, multiple scattering, the light march toward the sun, the step integral and the
-// ray-start jitter. A shader library of the cloud march (see `clouds.wgsl`).
+// Light of the cloud march (Joseph, Wiscombe & Weinman 1976; Toon et al. 1989; Nakajima & Tanaka
+// 1988; Hillaire 2016): the phase, the delta-Eddington source, the light march toward the sun,
+// the step integral and the ray-start jitter. A shader library of the cloud march (see `clouds.wgsl`).
 //
 // CPU twin: `src/reference/render/light.rs`. Every function here has a Rust function of the same
 // name there (f64 there, f32 here), and each points at the other; its module docs explain the
@@ -17,7 +17,7 @@
 #import bevy_cloudscape::cloud_density::total_extinction
 
 // Rust: the constants of the same names in reference/render/light.rs; see their docs there.
-const MAX_SCATTERING_OCTAVES: u32 = 8u;
+const MIN_DIFFUSE_MU_SUN: f32 = 0.02;
 const MAX_LIGHT_STEPS: u32 = 64u;
 // Where each light-march step is sampled: its midpoint, whatever the view ray's jitter (an
 // average of e^-tau over offsets is biased bright). Rust: `LIGHT_SAMPLE_OFFSET`.
@@ -47,21 +47,66 @@ fn dual_lobe_phase(cos_theta: f32, g_forward: f32, g_back: f32, blend_in: f32) -
     return (1.0 - blend) * henyey_greenstein(cos_theta, g_forward) + blend * henyey_greenstein(cos_theta, g_back);
 }
 
-// Wrenninge 2013: sum over octaves of b^i exp(-a^i tau) p(c^i g). Rust: `multiple_scattering`.
-fn multiple_scattering(optical_depth: f32, cos_theta: f32) -> f32 {
-    let octaves = clamp(clouds.octaves, 1u, MAX_SCATTERING_OCTAVES);
-    var a = 1.0;
-    var b = 1.0;
-    var c = 1.0;
-    var sum = 0.0;
-    for (var i = 0u; i < octaves; i++) {
-        let phase = dual_lobe_phase(cos_theta, c * clouds.phase_g_forward, c * clouds.phase_g_back, clouds.phase_blend);
-        sum += b * exp(-a * optical_depth) * phase;
-        a *= clouds.ms_attenuation;
-        b *= clouds.ms_contribution;
-        c *= clouds.ms_eccentricity;
+// The light a sample sends toward the camera per metre of the view ray: `direct` is seen through
+// the true medium, `scaled` through the delta-scaled one. Rust: `SampleSource`.
+struct SampleSource {
+    direct: vec3<f32>,
+    scaled: vec3<f32>,
+}
+
+// The delta-Eddington source-function light with the single scattering split at the forward
+// peak; `sun_depth` negative when the sun does not reach the sample. Rust: `sample_source` (its
+// docs give the equations).
+fn sample_source(
+    scattering: f32,
+    column_above: f32,
+    column_below: f32,
+    ambient: vec3<f32>,
+    sun_depth: f32,
+    mu_sun: f32,
+    cos_sun: f32,
+    mu_view: f32,
+) -> SampleSource {
+    let p = dual_lobe_phase(cos_sun, clouds.phase_g_forward, clouds.phase_g_back, clouds.phase_blend);
+    let sun = clouds.sun_illuminance.xyz;
+    var source = SampleSource(vec3<f32>(0.0), vec3<f32>(0.0));
+    if clouds.multiple_scattering == 0u {
+        var single = 0.0;
+        if sun_depth >= 0.0 {
+            single = p * exp(-sun_depth);
+        }
+        source.direct = scattering * sun * single + ambient;
+        return source;
     }
-    return sum;
+    let f = clouds.forward_fraction;
+    let g_star = clouds.scaled_asymmetry;
+    let one_minus_g = (1.0 - g_star) * (1.0 - f);
+    let transport = 4.0 / 3.0 + one_minus_g * (column_above + column_below);
+    let k = 0.25 / PI;
+    var peak = 0.0;
+    var wide = 0.0;
+    var diffuse = 0.0;
+    if sun_depth >= 0.0 {
+        let mu0 = max(mu_sun, MIN_DIFFUSE_MU_SUN);
+        let capped = min(p, clouds.forward_cap);
+        let beam = exp(-(1.0 - f) * sun_depth);
+        peak = (p - capped) * exp(-sun_depth);
+        wide = capped * beam;
+        let through = exp(-(1.0 - f) * (sun_depth + column_below / mu0));
+        let c1 = k * (3.0 * mu0 * mu0 + 2.0 * mu0 - through * (3.0 * mu0 * mu0 - 2.0 * mu0)) / transport;
+        let c0 = k * (3.0 * mu0 * mu0 + 2.0 * mu0) - 2.0 / 3.0 * c1;
+        let i1 = c1 - 3.0 * mu0 * k * beam;
+        let i0 = c0 - one_minus_g * c1 * column_above - 3.0 * mu0 * mu0 * k * beam;
+        diffuse = max(i0 + g_star * mu_view * i1, 0.0);
+    }
+    let top = clouds.ambient_top.xyz;
+    let bottom = clouds.ambient_bottom.xyz;
+    let i1 = (top - bottom) / transport;
+    let i0 = top - (2.0 / 3.0 + one_minus_g * column_above) * i1;
+    let sky = max(i0 + g_star * mu_view * i1, vec3<f32>(0.0));
+    source.direct = scattering * sun * peak;
+    source.scaled = scattering * (sun * (wide + (1.0 - f) * diffuse) + (1.0 - f) * sky);
+    return source;
 }
 
 // Distance to the exit of the shells that hold the point, toward the sun; negative when the

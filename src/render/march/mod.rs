@@ -4,7 +4,7 @@
 //! using the depth prepass (reverse-Z, infinite far plane: depth 0 is sky), and calls
 //! `march_clouds` from the shader library `clouds.wgsl`, which marches only the intervals where
 //! the ray crosses a layer shell around the planet, lights each sample with a light march toward
-//! the sun and multiple-scattering octaves, and integrates with Hillaire's energy-conserving
+//! the sun and the δ-Eddington diffuse light, and integrates with Hillaire's energy-conserving
 //! step. Then `march_haze` (`haze.wgsl`, see [`crate::render::haze`]) marches the haze along the
 //! same ray and stacks it in front of and behind the clouds. The result `(L, T)` is blended onto
 //! the HDR main texture as `scene · T + L`, before tonemapping ([`crate::render::composite`]).

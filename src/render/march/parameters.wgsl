@@ -24,16 +24,17 @@ struct CloudUniforms {
     primary_steps: u32,
     // Light-march steps toward the sun (0: no self-shadowing).
     light_steps: u32,
-    // Multiple-scattering octaves (1: single scattering).
-    octaves: u32,
+    // 1: the delta-Eddington multiple scattering; 0: single scattering and a height-graded sky.
+    multiple_scattering: u32,
     // Number of layers in `cloud_layers` (inactive ones may be left out by the CPU or not).
     layer_count: u32,
     // The march stops once the view transmittance is at or below this.
     transmittance_cutoff: f32,
-    // Wrenninge 2013 octave factors a, b, c (Pérez Martín 2022: 0.3, 0.75, 0.5).
-    ms_attenuation: f32,
-    ms_contribution: f32,
-    ms_eccentricity: f32,
+    // The phase's forward-peak fraction f, its asymmetry without the peak g* and its value at
+    // FORWARD_PEAK_DEG from the forward direction, 1/sr (Rust: `EddingtonPhase`).
+    forward_fraction: f32,
+    scaled_asymmetry: f32,
+    forward_cap: f32,
     // Dual-lobe Henyey-Greenstein: forward and backward asymmetry, weight of the back lobe.
     phase_g_forward: f32,
     phase_g_back: f32,
