@@ -27,6 +27,7 @@ pub mod haze;
 pub mod march;
 pub mod noise;
 pub mod shadow;
+pub mod sky_light;
 #[doc(hidden)]
 pub mod view;
 pub mod weather_map;
@@ -59,7 +60,7 @@ pub enum CloudQuality {
 /// shared by every camera.
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
 #[reflect(Component, Default)]
-#[require(DepthPrepass, Hdr)]
+#[require(DepthPrepass, Hdr, sky_light::CloudSkyLight)]
 pub struct VolumetricClouds {
     /// Steps along each view ray (1–1024): a budget for the whole ray, which the intervals where
     /// it crosses layers share in proportion to the steps each calls for (its length over

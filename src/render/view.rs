@@ -71,7 +71,7 @@ impl CloudSun {
 /// neither black nor noise (about 10⁻⁴ cd/m² for a moonless sky; Leinert et al. 1998).
 const NIGHT_SKY_RADIANCE: [f64; 3] = [0.6e-4, 0.8e-4, 1.2e-4];
 /// Albedo of the ground that lights cloud bases from below.
-const GROUND_ALBEDO: f64 = 0.2;
+pub(crate) const GROUND_ALBEDO: f64 = 0.2;
 
 #[doc(hidden)]
 /// The march inputs for one camera: f64 settings and the visible layers, from the same numbers

@@ -399,3 +399,59 @@ pub fn ray_start_jitter(settings: &MarchSettings, pixel: [f64; 2]) -> f64 {
         0.5
     }
 }
+
+/// The light on a horizontal surface under a cloud deck, per channel, lux: the direct beam
+/// through the deck and the diffuse light out of its base ([`deck_irradiance`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DeckIrradiance {
+    /// The sun's beam through the deck, `μ₀ E e^(−τ/μ₀)` (what a shadow map lets through).
+    pub direct: f64,
+    /// Everything else: the sun's light scattered in the deck (its forward peak included) and
+    /// the sky's light through it.
+    pub diffuse: f64,
+}
+
+/// The irradiance under a homogeneous deck of vertical optical depth `optical_depth` (the
+/// δ-Eddington two-stream fluxes of [`sample_source`]'s field at the base, with Marshak's
+/// boundary conditions), lit by a sun of illuminance `sun` (lux, on a surface facing it) at
+/// `mu_sun` = cosine of its zenith angle and by an isotropic sky of radiance `sky_top` (cd/m²) on
+/// its top, over a ground that sends `sky_bottom` (cd/m²) up into its base. The downward flux
+/// of the scaled problem at the base is `π (I₀ + 2I₁/3)`; its scaled direct beam `μ₀ E e^(−(1 −
+/// f) τ/μ₀)` holds the light scattered in the phase's forward peak, which is diffuse light
+/// beyond the true beam. Validated against DISORT's total downward flux (`validation/disort/`).
+/// CPU only: no WGSL twin.
+pub fn deck_irradiance(
+    phase: &EddingtonPhase,
+    optical_depth: f64,
+    mu_sun: f64,
+    sun: f64,
+    sky_top: f64,
+    sky_bottom: f64,
+) -> DeckIrradiance {
+    use std::f64::consts::PI;
+    let tau = optical_depth.max(0.0);
+    let f = phase.forward_fraction;
+    let one_minus_g = (1.0 - phase.scaled_asymmetry) * (1.0 - f);
+    let transport = 4.0 / 3.0 + one_minus_g * tau;
+    // The sky's field: I₁ = (A_t − A_b) / transport, I₀ = A_t − (2/3 + (1 − g) τ) I₁ at the base.
+    let sky_i1 = (sky_top - sky_bottom) / transport;
+    let sky_i0 = sky_top - (2.0 / 3.0 + one_minus_g * tau) * sky_i1;
+    let mut irradiance = DeckIrradiance {
+        direct: 0.0,
+        diffuse: PI * (sky_i0 + 2.0 / 3.0 * sky_i1),
+    };
+    if mu_sun > 0.0 && sun > 0.0 {
+        let mu0 = mu_sun.max(MIN_DIFFUSE_MU_SUN);
+        let k = 0.25 / PI * sun;
+        let beam = (-(1.0 - f) * tau / mu0).exp();
+        let c1 =
+            k * (3.0 * mu0 * mu0 + 2.0 * mu0 - beam * (3.0 * mu0 * mu0 - 2.0 * mu0)) / transport;
+        let c0 = k * (3.0 * mu0 * mu0 + 2.0 * mu0) - 2.0 / 3.0 * c1;
+        let i1 = c1 - 3.0 * mu0 * k * beam;
+        let i0 = c0 - one_minus_g * c1 * tau - 3.0 * mu0 * mu0 * k * beam;
+        irradiance.direct = mu_sun * sun * (-tau / mu_sun).exp();
+        irradiance.diffuse += PI * (i0 + 2.0 / 3.0 * i1) + mu_sun * sun * beam - irradiance.direct;
+    }
+    irradiance.diffuse = irradiance.diffuse.max(0.0);
+    irradiance
+}

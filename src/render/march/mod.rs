@@ -110,11 +110,16 @@ impl Plugin for CloudMarchPlugin {
             .register_type::<LayerDrift>()
             .register_type::<Haze>()
             .init_resource::<Haze>()
+            .register_type::<crate::render::sky_light::CloudSkyLight>()
             .add_systems(
                 Update,
-                drift_cloud_layers
-                    .after(CloudscapeSystems::Layers)
-                    .before(CloudscapeSystems::Sun),
+                (
+                    drift_cloud_layers
+                        .after(CloudscapeSystems::Layers)
+                        .before(CloudscapeSystems::Sun),
+                    crate::render::sky_light::light_the_scene_under_the_clouds
+                        .after(CloudscapeSystems::Sun),
+                ),
             );
         // Without a renderer (a server, a test of the weather alone) the layers still drift.
         if app.get_sub_app(RenderApp).is_none() {
