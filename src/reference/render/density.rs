@@ -63,6 +63,38 @@ pub fn profile_density(layer: &MarchLayer, height_fraction: f64) -> f64 {
     points[count - 1][1]
 }
 
+/// The integral of the layer's profile ([`profile_density`]) from the base up to
+/// `height_fraction` (clamped to 0–1), in height fractions: the column of a cloud at full density
+/// below that height, over the layer's extinction and thickness. Exact for the piecewise-linear
+/// profile. WGSL twin: `profile_column`.
+pub fn profile_column(layer: &MarchLayer, height_fraction: f64) -> f64 {
+    let h = saturate(height_fraction);
+    let count = (layer.profile_points as usize).min(MAX_PROFILE_POINTS);
+    if count == 0 {
+        return h;
+    }
+    let points = &layer.profile[..count];
+    // Before the first point the first value holds.
+    let mut total = points[0][1] * h.min(points[0][0]).max(0.0);
+    for pair in points.windows(2) {
+        let ([h0, d0], [h1, d1]) = (pair[0], pair[1]);
+        if h <= h0 {
+            return total;
+        }
+        let top = h.min(h1);
+        if top > h0 {
+            let end = if h1 > h0 {
+                lerp(d0, d1, (top - h0) / (h1 - h0))
+            } else {
+                d1
+            };
+            total += 0.5 * (d0 + end) * (top - h0);
+        }
+    }
+    let last = points[count - 1];
+    total + last[1] * (h - last[0]).max(0.0)
+}
+
 /// Range of the weather noise's coverage channel that [`local_coverage`] stretches to 0–1: about
 /// its 3rd and 98th percentiles for the default noise recipe (measured on 128² texels: median
 /// 0.72), so coverage reads as a fraction of the sky.

@@ -91,8 +91,10 @@ pub fn eddington_phase(settings: &MarchSettings) -> EddingtonPhase {
 }
 
 /// Where a sample sits in its cloud, for [`sample_source`]: the vertical optical depths of the
-/// cloud above and below it (each layer's extinction at the sample times the distance to its
-/// top and to its base: exact in a homogeneous slab).
+/// cloud above and below it, as if the cloud were at full density over the sample (each layer's
+/// extinction times its profile's integral up to its top and down to its base,
+/// [`profile_column`](super::profile_column): exact in a homogeneous slab, and a cloud's thin
+/// edge still sees the thick cloud behind it).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CloudColumn {
     /// Optical depth up to the top, dimensionless.
@@ -137,7 +139,9 @@ pub struct SampleLights {
 /// medium (extinction `(1 − f) σt`) holds a diffuse radiance `I₀ + μ I₁` (μ the cosine of the
 /// direction of travel from the downward vertical), whose two-stream equations with Marshak's
 /// boundary conditions have a closed form in the column's optical depths above (`τa`) and below
-/// (`τb`) the sample. For the sun (per unit illuminance `E`, `μ₀` the sun's cosine, `τs` the
+/// (`τb`) the sample; `τa` is at most the optical depth of the sun's path out times `μ₀`, since
+/// light reaches the sample through the nearest surface of its cloud (on a sunlit side, the
+/// side). For the sun (per unit illuminance `E`, `μ₀` the sun's cosine, `τs` the
 /// optical depth toward the sun, `e = e^(−(1 − f) τs)`, `k = 1/4π`):
 /// `I₁ = C₁ − 3μ₀ k e`, `I₀ = C₀ − (1 − g) C₁ τa − 3μ₀² k e`, with
 /// `C₁ = k (3μ₀² + 2μ₀ − e_T (3μ₀² − 2μ₀)) / (4/3 + (1 − g)(τa + τb))`, `e_T` the beam's scaled
@@ -183,6 +187,14 @@ pub fn sample_source(
     let f = phase.forward_fraction;
     let g_star = phase.scaled_asymmetry;
     let one_minus_g = (1.0 - g_star) * (1.0 - f);
+    // Light reaches a sample through the nearest surface of its cloud: where the sun's path out
+    // is shorter than the column above (a cloud's sunlit side), the sample is that deep.
+    let mut column = column;
+    if let Some(depth) = lights.sun_optical_depth {
+        column.above = column
+            .above
+            .min(depth * lights.mu_sun.max(MIN_DIFFUSE_MU_SUN));
+    }
     let transport = 4.0 / 3.0 + one_minus_g * (column.above + column.below);
     let mu = lights.mu_view;
     let k = 0.25 / std::f64::consts::PI;

@@ -10,8 +10,9 @@ use super::{
     CloudColumn, CloudTextures, EddingtonPhase, LIGHT_SAMPLE_OFFSET, MarchLayer, MarchSettings,
     SHADOW_MAP_NEAR_STEPS, SHADOW_MAP_NEAR_TEXELS, SampleLights, add, altitude_along_ray, dot,
     eddington_phase, ground_distance, horizontal_axes, is_positive, layer_density, layer_is_active,
-    lerp, mean_step_transmittance, next_cloud_interval, point_mu_sun, sample_source, saturate,
-    scale, scattering_albedo, step_warp, sun_optical_depth, total_extinction,
+    lerp, mean_step_transmittance, next_cloud_interval, point_mu_sun, profile_column,
+    sample_source, saturate, scale, scattering_albedo, step_warp, sun_optical_depth,
+    total_extinction,
 };
 use crate::reference::shadow::ShadowMapImage;
 
@@ -270,8 +271,13 @@ impl Ray<'_> {
                 }
                 medium.extinction += sigma;
                 medium.scattering += sigma_s;
-                medium.column.above += sigma * (layer.top_m - altitude).max(0.0);
-                medium.column.below += sigma * (altitude - layer.base_m).max(0.0);
+                // The column of a cloud at full density above and below (a cloud's edge is
+                // thin, the cloud behind it is not).
+                let thickness = layer.top_m - layer.base_m;
+                let full = layer.extinction * thickness;
+                let below = profile_column(layer, h);
+                medium.column.above += full * (profile_column(layer, 1.0) - below);
+                medium.column.below += full * below;
             }
         }
         medium

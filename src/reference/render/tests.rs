@@ -8,6 +8,7 @@ use std::sync::OnceLock;
 mod density;
 mod disort;
 mod march;
+mod mitsuba;
 
 /// Small textures (the default recipe's channels at 16³, 8³ and 32²): the march samples them
 /// exactly as it would the full-size ones, and a debug build generates them in a blink.

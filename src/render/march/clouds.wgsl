@@ -8,7 +8,9 @@
     altitude_along_ray, cloud_layer_count, horizontal_axes, layer_is_active, next_cloud_interval,
     saturate, step_warp,
 }
-#import bevy_cloudscape::cloud_density::{layer_density, scattering_albedo, total_extinction}
+#import bevy_cloudscape::cloud_density::{
+    layer_density, profile_column, scattering_albedo, total_extinction,
+}
 #import bevy_cloudscape::cloud_light::{
     LIGHT_SAMPLE_OFFSET, SHADOW_MAP_NEAR_STEPS, SHADOW_MAP_NEAR_TEXELS, mean_step_transmittance,
     point_mu_sun, sample_source, sun_optical_depth,
@@ -172,8 +174,11 @@ fn ray_medium(ray: ptr<function, MarchRay>, t: f32) -> Medium {
             medium.ambient += sigma_s * mix(clouds.ambient_bottom.xyz, clouds.ambient_top.xyz, height);
             medium.extinction += sigma;
             medium.scattering += sigma_s;
-            medium.column_above += sigma * max(layer.top_m - altitude, 0.0);
-            medium.column_below += sigma * max(altitude - layer.base_m, 0.0);
+            // The column of a cloud at full density above and below (Rust: `Ray::medium`).
+            let full = layer.extinction * (layer.top_m - layer.base_m);
+            let below = profile_column(layer, height);
+            medium.column_above += full * (profile_column(layer, 1.0) - below);
+            medium.column_below += full * below;
         }
     }
     return medium;

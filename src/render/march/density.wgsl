@@ -34,6 +34,36 @@ const SHAPE_WARP: f32 = 0.125;
 const SHAPE_WARP_BROAD: f32 = 0.5;
 const BROAD_WARP_PERIODS: f32 = 32.0;
 
+// The profile's integral from the base up to a height fraction. Rust: `profile_column`.
+fn profile_column(layer: CloudLayerGpu, height_fraction_in: f32) -> f32 {
+    let h = saturate(height_fraction_in);
+    let count = min(layer.profile_count, MAX_PROFILE_POINTS);
+    if count == 0u {
+        return h;
+    }
+    // A local copy: arrays held by value cannot be indexed dynamically.
+    var packed = layer.profile;
+    var previous = packed[0].xy;
+    var total = previous.y * max(min(h, previous.x), 0.0);
+    for (var i = 1u; i < count; i++) {
+        let pair = packed[i >> 1u];
+        let point = select(pair.xy, pair.zw, (i & 1u) == 1u);
+        if h <= previous.x {
+            return total;
+        }
+        let top = min(h, point.x);
+        if top > previous.x {
+            var end = point.y;
+            if point.x > previous.x {
+                end = mix(previous.y, point.y, (top - previous.x) / (point.x - previous.x));
+            }
+            total += 0.5 * (previous.y + end) * (top - previous.x);
+        }
+        previous = point;
+    }
+    return total + previous.y * max(h - previous.x, 0.0);
+}
+
 // Piecewise-linear profile at a height fraction, end values held, 1 with no points.
 // Rust: `profile_density`.
 fn profile_density(layer: CloudLayerGpu, height_fraction: f32) -> f32 {

@@ -59,7 +59,7 @@ struct SampleSource {
 // docs give the equations).
 fn sample_source(
     scattering: f32,
-    column_above: f32,
+    column_above_in: f32,
     column_below: f32,
     ambient: vec3<f32>,
     sun_depth: f32,
@@ -81,6 +81,11 @@ fn sample_source(
     let f = clouds.forward_fraction;
     let g_star = clouds.scaled_asymmetry;
     let one_minus_g = (1.0 - g_star) * (1.0 - f);
+    // Light reaches a sample through the nearest surface of its cloud (Rust: `sample_source`).
+    var column_above = column_above_in;
+    if sun_depth >= 0.0 {
+        column_above = min(column_above, sun_depth * max(mu_sun, MIN_DIFFUSE_MU_SUN));
+    }
     let transport = 4.0 / 3.0 + one_minus_g * (column_above + column_below);
     let k = 0.25 / PI;
     var peak = 0.0;

@@ -304,3 +304,31 @@ fn coverage_sets_the_cloudy_fraction() {
     assert!((0.3..0.7).contains(&fractions[1]), "{fractions:?}");
     assert!((0.6..0.95).contains(&fractions[2]), "{fractions:?}");
 }
+
+#[test]
+fn profile_column_is_the_integral_of_the_profile() {
+    let mut layer = MarchLayer::default();
+    for points in [
+        &[[0.0, 0.0], [0.1, 1.0], [0.6, 0.8], [1.0, 0.0]][..],
+        &[[0.2, 0.5], [0.7, 1.0]][..],
+        &[][..],
+    ] {
+        layer.set_profile(points);
+        let n = 100_000;
+        let mut sum = 0.0;
+        for i in 0..n {
+            let h = (f64::from(i) + 0.5) / f64::from(n);
+            sum += profile_density(&layer, h) / f64::from(n);
+            if (i + 1) % 25_000 == 0 {
+                let upto = f64::from(i + 1) / f64::from(n);
+                let column = profile_column(&layer, upto);
+                assert!(
+                    (column - sum).abs() < 1e-6,
+                    "{points:?} at {upto}: {column} vs {sum}"
+                );
+            }
+        }
+        assert_eq!(profile_column(&layer, 2.0), profile_column(&layer, 1.0));
+        assert_eq!(profile_column(&layer, -1.0), 0.0);
+    }
+}
