@@ -1,7 +1,7 @@
 """Radiances of homogeneous cloud slabs from DISORT (Stamnes et al. 1988, "Numerically stable
 algorithm for discrete-ordinate-method radiative transfer in multiple scattering and emitting
 layered media"), the reference the crate's light model is tested against
-(`cargo test --lib slabs_match_disort`).
+(`cargo test --lib disort`).
 
     validation/.venv/bin/python validation/disort/make_slabs.py
 

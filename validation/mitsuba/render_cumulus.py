@@ -6,7 +6,8 @@
 
 writes `validation/mitsuba/<scene>.csv`: the radiance per unit sun irradiance of each pixel
 (1/sr, the green channel of a white sun and sky), one line per image row from the top. The crate
-is compared with them by `cargo test --lib cumulus_matches_mitsuba -- --ignored --nocapture`.
+is compared with them by
+`cargo test --lib cumulus_base_to_top_ratio_matches_mitsuba -- --nocapture`.
 """
 
 import argparse
