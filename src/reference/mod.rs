@@ -33,4 +33,6 @@ pub mod haze;
 pub mod noise;
 pub mod render;
 pub mod shadow;
+#[cfg(test)]
+pub(crate) mod table;
 pub mod weather_map;

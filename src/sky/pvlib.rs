@@ -26,56 +26,23 @@ struct Case {
 /// The cases of `text` (the contents of `file`); an error names the file, the row (1 is the
 /// header) and what is wrong.
 fn parse_table(file: &str, text: &str) -> Result<Vec<Case>, String> {
-    let mut lines = text.lines();
-    match lines.next() {
-        Some(header) if header.trim() == HEADER => {}
-        Some(header) => {
-            return Err(format!(
-                "{file}: row 1: header {header:?}, expected {HEADER:?}"
-            ));
-        }
-        None => return Err(format!("{file}: empty")),
-    }
-    let cases: Vec<Case> = lines
-        .enumerate()
-        .filter(|(_, line)| !line.trim().is_empty())
-        .map(|(i, line)| {
-            let row = i + 2;
-            let values: Vec<f64> = line
-                .split(',')
-                .map(|field| {
-                    field
-                        .trim()
-                        .parse::<f64>()
-                        .ok()
-                        .filter(|v| v.is_finite())
-                        .ok_or_else(|| format!("{file}: row {row}: {field:?} is not a number"))
-                })
-                .collect::<Result<_, _>>()?;
-            let [unix_s, lat, lon, h, delta_t, zenith, apparent, azimuth] = values[..] else {
-                return Err(format!(
-                    "{file}: row {row}: {} fields, expected 8",
-                    values.len()
-                ));
-            };
-            Ok(Case {
-                unix_s,
-                observer: Observer {
-                    latitude_deg: lat,
-                    longitude_deg: lon,
-                    elevation_m: h,
-                },
-                delta_t_s: delta_t,
-                zenith_deg: zenith,
-                apparent_zenith_deg: apparent,
-                azimuth_deg: azimuth,
-            })
+    crate::reference::table::parse_table(file, text, HEADER, 8, |_, values| {
+        let &[unix_s, lat, lon, h, delta_t, zenith, apparent, azimuth] = values else {
+            unreachable!("the reader checks the field count");
+        };
+        Ok(Case {
+            unix_s,
+            observer: Observer {
+                latitude_deg: lat,
+                longitude_deg: lon,
+                elevation_m: h,
+            },
+            delta_t_s: delta_t,
+            zenith_deg: zenith,
+            apparent_zenith_deg: apparent,
+            azimuth_deg: azimuth,
         })
-        .collect::<Result<_, _>>()?;
-    if cases.is_empty() {
-        return Err(format!("{file}: no cases"));
-    }
-    Ok(cases)
+    })
 }
 
 /// The largest differences to pvlib over `cases`, degrees: geometric zenith, refracted zenith,

@@ -37,58 +37,26 @@ struct Case {
 /// The cases of `text` (the contents of `file`); an error names the file, the row (1 is the
 /// header) and what is wrong.
 fn parse_table(file: &str, text: &str) -> Result<Vec<Case>, String> {
-    let mut lines = text.lines();
-    match lines.next() {
-        Some(header) if header.trim() == HEADER => {}
-        Some(header) => {
+    crate::reference::table::parse_table(file, text, HEADER, 10, |_, values| {
+        let &[tau, zenith, sky, l0, l1, l2, l3, total_down, _, _] = values else {
+            unreachable!("the reader checks the field count");
+        };
+        if values.iter().any(|v| *v < 0.0) {
+            return Err("a negative value".to_owned());
+        }
+        if !(tau > 0.0 && zenith < 90.0) {
             return Err(format!(
-                "{file}: row 1: header {header:?}, expected {HEADER:?}"
+                "optical depth {tau} or sun zenith {zenith}° out of range"
             ));
         }
-        None => return Err(format!("{file}: empty")),
-    }
-    let cases: Vec<Case> = lines
-        .enumerate()
-        .filter(|(_, line)| !line.trim().is_empty())
-        .map(|(i, line)| {
-            let row = i + 2;
-            let values: Vec<f64> = line
-                .split(',')
-                .map(|field| {
-                    field
-                        .trim()
-                        .parse::<f64>()
-                        .ok()
-                        .filter(|v| v.is_finite() && *v >= 0.0)
-                        .ok_or_else(|| {
-                            format!("{file}: row {row}: {field:?} is not a number of 0 or more")
-                        })
-                })
-                .collect::<Result<_, _>>()?;
-            let [tau, zenith, sky, l0, l1, l2, l3, total_down, _, _] = values[..] else {
-                return Err(format!(
-                    "{file}: row {row}: {} fields, expected 10",
-                    values.len()
-                ));
-            };
-            if !(tau > 0.0 && zenith < 90.0) {
-                return Err(format!(
-                    "{file}: row {row}: optical depth {tau} or sun zenith {zenith}° out of range"
-                ));
-            }
-            Ok(Case {
-                optical_depth: tau,
-                sun_zenith_deg: zenith,
-                sky_radiance: sky,
-                radiance: [l0, l1, l2, l3],
-                total_down,
-            })
+        Ok(Case {
+            optical_depth: tau,
+            sun_zenith_deg: zenith,
+            sky_radiance: sky,
+            radiance: [l0, l1, l2, l3],
+            total_down,
         })
-        .collect::<Result<_, _>>()?;
-    if cases.is_empty() {
-        return Err(format!("{file}: no cases"));
-    }
-    Ok(cases)
+    })
 }
 
 fn table() -> Vec<Case> {
@@ -200,6 +168,10 @@ fn a_broken_slab_table_names_the_file_and_row() {
             "t.csv: row 2: \"NaN\"",
         ),
         (&format!("{HEADER}\n2,40,0,1\n"), "t.csv: row 2: 4 fields"),
+        (
+            &format!("{HEADER}\n2,40,0,-1,1,1,1,0.5,0.1,0.4\n"),
+            "t.csv: row 2: a negative value",
+        ),
         (
             &format!("{HEADER}\n2,95,0,1,1,1,1,0.5,0.1,0.4\n"),
             "t.csv: row 2: optical depth 2 or sun zenith 95",
