@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! cargo run --release --example bench -- [--width W] [--height H] [--frames N] [--out DIR] [--scene NAME] [--presets LIST] [--reference-steps N] [--no-jitter] [--effects-only] [--error-budget]
-//! cargo run --release --example bench -- --time-only [--presets LIST] [--sizes WxH,...] [--layers N,...] [--set FIELD=VALUE] [--scene NAME] [--out DIR]
+//! cargo run --release --example bench -- --time-only [--gpu-spans] [--presets LIST] [--sizes WxH,...] [--layers N,...] [--set FIELD=VALUE] [--scene NAME] [--out DIR]
 //! cargo run --release --example bench -- --growth [--frames N] [--out DIR]
 //! ```
 //!
@@ -133,6 +133,10 @@ struct Args {
     /// by scene, size and reference steps): for runs that change only the presets.
     #[arg(long, value_name = "DIR")]
     reference_cache: Option<PathBuf>,
+    /// With `--time-only`, also print each cloud pass's mean GPU time over the timed frames
+    /// (Bevy's render diagnostics, `render/clouds/PASS/elapsed_gpu`): where the cost goes.
+    #[arg(long, requires = "time_only")]
+    gpu_spans: bool,
     /// Time one step of the cloud-growth automaton at several grid sizes instead (writes
     /// `growth.csv`: `width,length,depth,cells,ms_per_step`).
     #[arg(long)]
@@ -761,7 +765,11 @@ fn time_only(args: &Args) -> Result<(), String> {
         args.sizes.clone()
     };
     for size in sizes {
-        let mut rig = CloudRig::new(size, Msaa::Off, default());
+        let mut rig = if args.gpu_spans {
+            CloudRig::with_gpu_spans(size, Msaa::Off, default())
+        } else {
+            CloudRig::new(size, Msaa::Off, default())
+        };
         let scenes = bench_scenes()
             .into_iter()
             .filter(|s| args.scene.as_deref().is_none_or(|name| name == s.name));
@@ -774,7 +782,11 @@ fn time_only(args: &Args) -> Result<(), String> {
                 for (preset, settings) in selected_presets(args) {
                     let mut settings = with_knobs(settings, &args.knobs)?;
                     settings.jitter &= !args.no_jitter;
+                    clear_gpu_spans(&mut rig);
                     let measured = measure(&mut rig, &stacked, &settings, args.frames, false);
+                    if args.gpu_spans {
+                        print_gpu_spans(&mut rig, preset);
+                    }
                     let line = format!(
                         "{},{preset},{},{},{count},{:.3}",
                         scene.name, size.x, size.y, measured.ms
@@ -789,6 +801,45 @@ fn time_only(args: &Args) -> Result<(), String> {
     std::fs::write(&path, &csv).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     print!("{csv}");
     Ok(())
+}
+
+/// Forgets the render diagnostics' history, so the next [`print_gpu_spans`] averages only the
+/// frames after this.
+fn clear_gpu_spans(rig: &mut CloudRig) {
+    if let Some(mut store) = rig
+        .app
+        .world()
+        .get_resource_mut::<bevy::diagnostic::DiagnosticsStore>()
+    {
+        for diagnostic in store.iter_mut() {
+            diagnostic.clear_history();
+        }
+    }
+}
+
+/// Prints the mean GPU time of each cloud pass since [`clear_gpu_spans`] (stderr:
+/// `gpu_span,PRESET,PASS,ms`).
+fn print_gpu_spans(rig: &mut CloudRig, preset: &str) {
+    let world = rig.app.world();
+    let Some(store) = world.get_resource::<bevy::diagnostic::DiagnosticsStore>() else {
+        return;
+    };
+    let mut spans: Vec<(String, f64)> = store
+        .iter()
+        .filter_map(|d| {
+            let path = d.path().as_str();
+            let pass = path.strip_suffix("/elapsed_gpu")?;
+            let ms = d.average()?;
+            pass.contains("cloud").then(|| (pass.to_owned(), ms))
+        })
+        .collect();
+    spans.sort_by(|a, b| a.0.cmp(&b.0));
+    if spans.is_empty() {
+        eprintln!("gpu_span,{preset}: no GPU spans (does the device have timestamp queries?)");
+    }
+    for (pass, ms) in spans {
+        eprintln!("gpu_span,{preset},{pass},{ms:.3}");
+    }
 }
 
 /// `count` copies of `layers` stacked one above the other, 100 m apart.

@@ -190,7 +190,21 @@ pub const EXPOSURE: Exposure = Exposure { ev100: 13.0 };
 impl CloudRig {
     /// A rig rendering `size` pixels with `msaa`, over noise made from `noise`.
     pub fn new(size: UVec2, msaa: Msaa, noise: NoiseRecipe) -> Self {
+        Self::build(size, msaa, noise, false)
+    }
+
+    /// [`CloudRig::new`] with Bevy's render diagnostics on: each cloud pass's GPU time is in
+    /// the `DiagnosticsStore` as `render/clouds/PASS/elapsed_gpu` (where the device has
+    /// timestamp queries).
+    pub fn with_gpu_spans(size: UVec2, msaa: Msaa, noise: NoiseRecipe) -> Self {
+        Self::build(size, msaa, noise, true)
+    }
+
+    fn build(size: UVec2, msaa: Msaa, noise: NoiseRecipe, gpu_spans: bool) -> Self {
         let mut app = Headless::new(size, TextureFormat::Rgba16Float, |app| {
+            if gpu_spans {
+                app.add_plugins(bevy::render::diagnostic::RenderDiagnosticsPlugin);
+            }
             // The rig measures the march: the cloud shadow map (its own pass, tested and timed
             // on its own) is off unless a test turns it on.
             app.add_plugins(CloudscapePlugin)
