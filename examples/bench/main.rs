@@ -782,7 +782,9 @@ fn time_only(args: &Args) -> Result<(), String> {
                 for (preset, settings) in selected_presets(args) {
                     let mut settings = with_knobs(settings, &args.knobs)?;
                     settings.jitter &= !args.no_jitter;
-                    clear_gpu_spans(&mut rig);
+                    if args.gpu_spans {
+                        clear_gpu_spans(&mut rig);
+                    }
                     let measured = measure(&mut rig, &stacked, &settings, args.frames, false);
                     if args.gpu_spans {
                         print_gpu_spans(&mut rig, preset);
