@@ -259,6 +259,24 @@ pub fn moving_blend(alpha: f64, motion_px: f64) -> f64 {
     unit_weight(unit_weight(alpha) * (1.0 + motion_px))
 }
 
+/// How far from a texel centre, in texels along each axis, a history read may land and still be
+/// read as that one texel ([`history_read_snaps`]): 0.001. Lanczos-3's other weights there add
+/// up to under 1 % ([`lanczos3_weights`]), while a still camera's reprojection lands on the
+/// centres to within f32 rounding (about 10⁻⁴ texel at 4K). WGSL twin: the constant of the
+/// same name in `temporal.wgsl`.
+pub const HISTORY_SNAP_TEXELS: f64 = 1e-3;
+
+/// Whether the history read at `position` (texel units, texel centres at integers) is the
+/// nearest texel itself rather than the Lanczos-3 filter around it: within
+/// [`HISTORY_SNAP_TEXELS`] of its centre on both axes. A still camera reads every pixel's
+/// history this way, one texel read instead of the filter's 25. WGSL twin: the start of
+/// `sample_history` in `temporal.wgsl`.
+pub fn history_read_snaps(position: [f64; 2]) -> bool {
+    position
+        .iter()
+        .all(|p| (p - p.round()).abs() <= HISTORY_SNAP_TEXELS)
+}
+
 /// The weights with which the history is read at a point `fraction` (0–1) of a texel past the
 /// centre of texel `base`, for the texels `base − 2 ..= base + 3` of each axis: a Lanczos-3
 /// filter (a sinc windowed by a sinc three texels wide, Duchon 1979), normalised to sum to 1.
@@ -562,6 +580,19 @@ mod tests {
             let signal: f64 = (0..n).map(|i| exact(i, 60).powi(2)).sum();
             (error / signal).sqrt()
         };
+        // Where the read snaps to a texel, the filter it skips is that texel to within 1 %.
+        for fraction in [HISTORY_SNAP_TEXELS, 1.0 - HISTORY_SNAP_TEXELS] {
+            let weights = lanczos3_weights(fraction);
+            let centre = if fraction < 0.5 { 2 } else { 3 };
+            let off: f64 = (0..6)
+                .map(|i| (weights[i] - f64::from(u8::from(i == centre))).abs())
+                .sum();
+            assert!(off < 0.01, "{fraction}: {weights:?}");
+        }
+        assert!(history_read_snaps([3.0, 7.0005]));
+        assert!(history_read_snaps([-2.9995, 0.0]));
+        assert!(!history_read_snaps([3.0, 7.01]));
+        assert!(!history_read_snaps([3.5, 7.0]));
         let at_centre = lanczos3_weights(0.0);
         for (i, w) in at_centre.into_iter().enumerate() {
             let expected = if i == 2 { 1.0 } else { 0.0 };

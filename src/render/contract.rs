@@ -66,6 +66,10 @@ fn rust_constants() -> Vec<(&'static str, Vec<f64>)> {
         ("FAR_AWAY", scalar(composite::FAR_AWAY)),
         ("DEPTH_TOLERANCE", scalar(composite::DEPTH_TOLERANCE)),
         ("MIN_WEIGHT_SUM", scalar(composite::MIN_WEIGHT_SUM)),
+        (
+            "HISTORY_SNAP_TEXELS",
+            scalar(composite::HISTORY_SNAP_TEXELS),
+        ),
         ("NO_HIT", scalar(NO_HIT)),
         ("PI", scalar(std::f64::consts::PI)),
         ("MAX_HAZE_STEPS", scalar(haze::MAX_HAZE_STEPS.into())),

@@ -42,6 +42,8 @@ struct TemporalUniforms {
 @group(0) @binding(7) var<uniform> ground: ViewGround;
 
 const PI: f32 = 3.141592653589793;
+// Rust: `HISTORY_SNAP_TEXELS` in reference/composite.rs.
+const HISTORY_SNAP_TEXELS: f32 = 1e-3;
 
 // Rust: `moving_blend`. The new frame's weight for a pixel whose content moved `motion_px`
 // full-resolution pixels since last frame.
@@ -99,6 +101,13 @@ fn lanczos3_weights(fraction: f32) -> array<f32, 6> {
 fn sample_history(uv: vec2<f32>) -> vec4<f32> {
     let size = vec2<f32>(textureDimensions(history));
     let position = uv * size - 0.5;
+    // On a texel centre the filter is that texel (Rust: `history_read_snaps`): one read, where
+    // a still camera's history always lands.
+    let nearest = round(position);
+    if all(abs(position - nearest) <= vec2<f32>(HISTORY_SNAP_TEXELS)) {
+        let texel = clamp(vec2<i32>(nearest), vec2<i32>(0), vec2<i32>(size) - 1);
+        return textureLoad(history, texel, 0);
+    }
     let base = floor(position);
     let f = position - base;
     let lx = lanczos3_weights(f.x);

@@ -43,7 +43,10 @@ use bevy::{
             binding_types::{texture_3d, texture_storage_2d, texture_storage_3d, uniform_buffer},
             *,
         },
-        renderer::{RenderAdapter, RenderContext, RenderDevice, RenderGraph, RenderQueue},
+        renderer::{
+            RenderAdapter, RenderContext, RenderDevice, RenderGraph, RenderGraphSystems,
+            RenderQueue,
+        },
     },
 };
 
@@ -83,7 +86,12 @@ impl Plugin for CloudNoisePlugin {
                 Render,
                 prepare_cloud_noise_textures.in_set(RenderSystems::PrepareResources),
             )
-            .add_systems(RenderGraph, generate_cloud_noise.before(camera_driver));
+            .add_systems(
+                RenderGraph,
+                generate_cloud_noise
+                    .in_set(RenderGraphSystems::Render)
+                    .before(camera_driver),
+            );
     }
 }
 

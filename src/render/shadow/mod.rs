@@ -67,7 +67,10 @@ use bevy::{
             },
             *,
         },
-        renderer::{RenderAdapter, RenderContext, RenderDevice, RenderGraph, RenderQueue},
+        renderer::{
+            RenderAdapter, RenderContext, RenderDevice, RenderGraph, RenderGraphSystems,
+            RenderQueue,
+        },
         texture::GpuImage,
     },
 };
@@ -205,7 +208,12 @@ impl Plugin for CloudShadowPlugin {
                 Render,
                 prepare_cloud_shadow.in_set(RenderSystems::PrepareBindGroups),
             )
-            .add_systems(RenderGraph, generate_cloud_shadow.before(camera_driver));
+            .add_systems(
+                RenderGraph,
+                generate_cloud_shadow
+                    .in_set(RenderGraphSystems::Render)
+                    .before(camera_driver),
+            );
     }
 }
 
