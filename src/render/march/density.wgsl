@@ -15,7 +15,7 @@
 #import bevy_cloudscape::cloud_textures::weather_map
 #endif
 #import bevy_cloudscape::cloud_geometry::{
-    cloud_layer_count, layer_coverage, layer_is_active, saturate,
+    cloud_layer_count, layer_coverage, layer_is_active, saturate, wrap_texel,
 }
 
 // Rust: the constants of the same names in reference/render/density.rs; see their docs there.
@@ -160,8 +160,7 @@ fn weather_texel_coverage(layer: CloudLayerGpu, texel: vec2<i32>) -> f32 {
     if coverage >= 1.0 {
         return 1.0;
     }
-    // True modulo on integers, so negative indices repeat too.
-    let wrapped = (texel % size + size) % size;
+    let wrapped = wrap_texel(texel, size);
     return local_coverage(coverage, textureLoad(weather_noise, wrapped, 0).x);
 }
 
@@ -211,9 +210,8 @@ fn curl_look_up(x: vec2<f32>) -> vec2<f32> {
     let size = vec2<i32>(textureDimensions(weather_noise));
     let cell = floor(x);
     let weight = x - cell;
-    // True modulo on integers, so negative indices repeat too.
-    let t0 = (vec2<i32>(cell) % size + size) % size;
-    let t1 = (t0 + vec2<i32>(1)) % size;
+    let t0 = wrap_texel(vec2<i32>(cell), size);
+    let t1 = wrap_texel(t0 + vec2<i32>(1), size);
     let c00 = textureLoad(weather_noise, t0, 0).zw;
     let c10 = textureLoad(weather_noise, vec2<i32>(t1.x, t0.y), 0).zw;
     let c01 = textureLoad(weather_noise, vec2<i32>(t0.x, t1.y), 0).zw;

@@ -18,6 +18,17 @@ fn saturate(x: f32) -> f32 {
     return clamp(x, 0.0, 1.0);
 }
 
+// `texel` wrapped into a texture of `size` texels, as Rust's `rem_euclid` (negative indices
+// repeat too). A power-of-two size (every default texture) wraps with a mask: the same value
+// for any sign, and far cheaper where the GPU is a CPU (software Vulkan scalarises vector
+// integer division, and the march wraps a dozen texels per density sample).
+fn wrap_texel(texel: vec2<i32>, size: vec2<i32>) -> vec2<i32> {
+    if all((size & (size - 1)) == vec2<i32>(0)) {
+        return texel & (size - 1);
+    }
+    return (texel % size + size) % size;
+}
+
 // Altitude at distance t along the ray: h + s / (A + sqrt(A^2 + s)), A = R + h,
 // s = 2 A mu t + t^2, without subtracting two planet radii. Rust: `altitude_along_ray`.
 fn altitude_along_ray(h: f32, mu: f32, t: f32, planet_radius: f32) -> f32 {

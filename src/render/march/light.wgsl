@@ -13,6 +13,7 @@
 #import bevy_cloudscape::cloud_textures::blue_noise
 #import bevy_cloudscape::cloud_geometry::{
     altitude_along_ray, cloud_layer_count, horizontal_axes, layer_is_active, saturate,
+    wrap_texel,
 }
 #import bevy_cloudscape::cloud_density::total_extinction
 
@@ -210,7 +211,7 @@ fn mean_step_transmittance(x_in: f32) -> f32 {
 // Rust: `blue_noise_jitter`.
 fn blue_noise_jitter(pixel: vec2<f32>, frame: u32) -> f32 {
     let size = vec2<i32>(textureDimensions(blue_noise));
-    let texel = ((vec2<i32>(floor(pixel)) % size) + size) % size;
+    let texel = wrap_texel(vec2<i32>(floor(pixel)), size);
     let sum = textureLoad(blue_noise, texel, 0).r + GOLDEN_RATIO_CONJUGATE * f32(frame % JITTER_FRAME_PERIOD);
     return sum - floor(sum);
 }

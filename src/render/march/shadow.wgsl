@@ -11,6 +11,7 @@
 #import bevy_cloudscape::cloud_textures::{cloud_shadow_map, noise_sampler}
 #import bevy_cloudscape::cloud_geometry::{
     altitude_along_ray, altitude_of, cloud_layer_count, horizontal_axes, next_cloud_interval,
+    wrap_texel,
 }
 #import bevy_cloudscape::cloud_density::total_extinction
 #import bevy_cloudscape::cloud_light::point_mu_sun
@@ -181,7 +182,7 @@ fn map_sun_optical_depth(uv: vec2<f32>, altitude_m: f32) -> f32 {
     var sum = 0.0;
     for (var k = 0u; k < 4u; k++) {
         let offset = vec2<i32>(i32(k & 1u), i32(k >> 1u));
-        let texel = ((i0 + offset) % size + size) % size;
+        let texel = wrap_texel(i0 + offset, size);
         let w = select(1.0 - f.x, f.x, offset.x == 1) * select(1.0 - f.y, f.y, offset.y == 1);
         sum += w * column_optical_depth(textureLoad(cloud_shadow_map, texel, 0), altitude_m);
     }
