@@ -166,7 +166,7 @@ fn ray_medium(ray: ptr<function, MarchRay>, t: f32) -> Medium {
     let count = cloud_layer_count();
     for (var i = 0u; i < count; i++) {
         let layer = cloud_layers[i];
-        let sigma = layer_density(layer, horizontal, altitude, footprint, true);
+        let sigma = layer_density(i, horizontal, altitude, footprint, true);
         if sigma > 0.0 {
             let sigma_s = sigma * scattering_albedo(layer);
             // Ambient sky light grows from the base to the top (Pérez Martín 2022, "Day / Night Cycle").
@@ -176,8 +176,8 @@ fn ray_medium(ray: ptr<function, MarchRay>, t: f32) -> Medium {
             medium.scattering += sigma_s;
             // The column of a cloud at full density above and below (Rust: `Ray::medium`).
             let full = layer.extinction * (layer.top_m - layer.base_m);
-            let below = profile_column(layer, height);
-            medium.column_above += full * (profile_column(layer, 1.0) - below);
+            let below = profile_column(i, height);
+            medium.column_above += full * (profile_column(i, 1.0) - below);
             medium.column_below += full * below;
         }
     }

@@ -34,19 +34,20 @@ const SHAPE_WARP: f32 = 0.125;
 const SHAPE_WARP_BROAD: f32 = 0.5;
 const BROAD_WARP_PERIODS: f32 = 32.0;
 
-// The profile's integral from the base up to a height fraction. Rust: `profile_column`.
-fn profile_column(layer: CloudLayerGpu, height_fraction_in: f32) -> f32 {
+// The profile of layer `index` (of `cloud_layers`) integrated from the base up to a height
+// fraction. Rust: `profile_column`.
+fn profile_column(index: u32, height_fraction_in: f32) -> f32 {
     let h = saturate(height_fraction_in);
-    let count = min(layer.profile_count, MAX_PROFILE_POINTS);
+    let count = min(cloud_layers[index].profile_count, MAX_PROFILE_POINTS);
     if count == 0u {
         return h;
     }
-    // A local copy: arrays held by value cannot be indexed dynamically.
-    var packed = layer.profile;
-    var previous = packed[0].xy;
+    // Read from the buffer rather than from a copy of the array made per call (a value's array
+    // cannot be indexed dynamically).
+    var previous = cloud_layers[index].profile[0].xy;
     var total = previous.y * max(min(h, previous.x), 0.0);
     for (var i = 1u; i < count; i++) {
-        let pair = packed[i >> 1u];
+        let pair = cloud_layers[index].profile[i >> 1u];
         let point = select(pair.xy, pair.zw, (i & 1u) == 1u);
         if h <= previous.x {
             return total;
@@ -64,22 +65,20 @@ fn profile_column(layer: CloudLayerGpu, height_fraction_in: f32) -> f32 {
     return total + previous.y * max(h - previous.x, 0.0);
 }
 
-// Piecewise-linear profile at a height fraction, end values held, 1 with no points.
-// Rust: `profile_density`.
-fn profile_density(layer: CloudLayerGpu, height_fraction: f32) -> f32 {
-    let count = min(layer.profile_count, MAX_PROFILE_POINTS);
+// Piecewise-linear profile of layer `index` at a height fraction, end values held, 1 with no
+// points. Rust: `profile_density`.
+fn profile_density(index: u32, height_fraction: f32) -> f32 {
+    let count = min(cloud_layers[index].profile_count, MAX_PROFILE_POINTS);
     if count == 0u {
         return 1.0;
     }
-    // A local copy: arrays held by value cannot be indexed dynamically.
-    var packed = layer.profile;
-    let first = packed[0].xy;
+    let first = cloud_layers[index].profile[0].xy;
     if height_fraction <= first.x {
         return first.y;
     }
     var previous = first;
     for (var i = 1u; i < count; i++) {
-        let pair = packed[i >> 1u];
+        let pair = cloud_layers[index].profile[i >> 1u];
         let point = select(pair.xy, pair.zw, (i & 1u) == 1u);
         if height_fraction <= point.x {
             let span = point.x - previous.x;
@@ -231,11 +230,12 @@ fn shape_warp(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_base_m
     return (SHAPE_WARP * fine + SHAPE_WARP_BROAD * broad) * layer.shape_scale_m;
 }
 
-// Extinction (1/m) of one layer at horizontal coordinates `horizontal_m` (along
+// Extinction (1/m) of layer `index` (of `cloud_layers`) at horizontal coordinates `horizontal_m` (along
 // `horizontal_axes`, relative to the camera) and `altitude_m`; `footprint_m` picks the mips;
 // `with_detail = false` is the cheap base-only density (never below the full one).
 // Rust: `layer_density`.
-fn layer_density(layer: CloudLayerGpu, horizontal_m: vec2<f32>, altitude_m: f32, footprint_m: f32, with_detail: bool) -> f32 {
+fn layer_density(index: u32, horizontal_m: vec2<f32>, altitude_m: f32, footprint_m: f32, with_detail: bool) -> f32 {
+    let layer = cloud_layers[index];
     let inside = altitude_m >= layer.base_m && altitude_m <= layer.top_m;
     if !layer_is_active(layer) || !inside {
         return 0.0;
@@ -247,7 +247,7 @@ fn layer_density(layer: CloudLayerGpu, horizontal_m: vec2<f32>, altitude_m: f32,
         return 0.0;
     }
     let fill = patch_fill(kappa);
-    let profile = profile_density(layer, height_fraction / coverage_height_scale(layer.coverage_height, fill));
+    let profile = profile_density(index, height_fraction / coverage_height_scale(layer.coverage_height, fill));
     if !(profile > 0.0) {
         return 0.0;
     }
@@ -276,7 +276,7 @@ fn layer_density(layer: CloudLayerGpu, horizontal_m: vec2<f32>, altitude_m: f32,
 fn total_extinction(horizontal_m: vec2<f32>, altitude_m: f32, footprint_m: f32, with_detail: bool) -> f32 {
     var extinction = 0.0;
     for (var i = 0u; i < cloud_layer_count(); i++) {
-        extinction += layer_density(cloud_layers[i], horizontal_m, altitude_m, footprint_m, with_detail);
+        extinction += layer_density(i, horizontal_m, altitude_m, footprint_m, with_detail);
     }
     return extinction;
 }
