@@ -135,6 +135,8 @@ struct Args {
     reference_cache: Option<PathBuf>,
     /// With `--time-only`, also print each cloud pass's mean GPU time over the timed frames
     /// (Bevy's render diagnostics, `render/clouds/PASS/elapsed_gpu`): where the cost goes.
+    /// Appended to `spans.csv` (`scene,preset,width,height,layers,shadows,knobs,pass,ms`;
+    /// `knobs` the `--set` values, space-separated).
     #[arg(long, requires = "time_only")]
     gpu_spans: bool,
     /// Turn the cloud shadow map on ([`CloudShadows::default`], as a game's plugin has it), for
@@ -797,6 +799,13 @@ fn time_only(args: &Args) -> Result<(), String> {
         Ok(text) if !text.trim().is_empty() => text,
         _ => String::from("scene,preset,width,height,layers,ms_per_frame\n"),
     };
+    let spans_path = args.out.join("spans.csv");
+    let mut spans_csv = match std::fs::read_to_string(&spans_path) {
+        Ok(text) if !text.trim().is_empty() => text,
+        _ => String::from("scene,preset,width,height,layers,shadows,knobs,pass,ms\n"),
+    };
+    let knobs: Vec<String> = args.knobs.iter().map(|(k, v)| format!("{k}={v}")).collect();
+    let knobs = knobs.join(" ");
     let sizes = if args.sizes.is_empty() {
         vec![args.size()]
     } else {
@@ -823,7 +832,12 @@ fn time_only(args: &Args) -> Result<(), String> {
                     settings.jitter &= !args.no_jitter;
                     let measured = measure(&mut rig, &stacked, &settings, args.frames, false);
                     if args.gpu_spans {
-                        print_gpu_spans(&mut rig, preset);
+                        for (pass, ms) in print_gpu_spans(&mut rig, preset) {
+                            spans_csv.push_str(&format!(
+                                "{},{preset},{},{},{count},{},{knobs},{pass},{ms:.3}\n",
+                                scene.name, size.x, size.y, args.shadows
+                            ));
+                        }
                     }
                     let line = format!(
                         "{},{preset},{},{},{count},{:.3}",
@@ -837,6 +851,10 @@ fn time_only(args: &Args) -> Result<(), String> {
         }
     }
     std::fs::write(&path, &csv).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    if args.gpu_spans {
+        std::fs::write(&spans_path, &spans_csv)
+            .map_err(|e| format!("cannot write {}: {e}", spans_path.display()))?;
+    }
     print!("{csv}");
     Ok(())
 }
@@ -856,11 +874,11 @@ fn clear_gpu_spans(rig: &mut CloudRig) {
 }
 
 /// Prints the mean GPU time of each cloud pass since [`clear_gpu_spans`] (stderr:
-/// `gpu_span,PRESET,PASS,ms`).
-fn print_gpu_spans(rig: &mut CloudRig, preset: &str) {
+/// `gpu_span,PRESET,PASS,ms`) and returns them as `(pass, ms)`.
+fn print_gpu_spans(rig: &mut CloudRig, preset: &str) -> Vec<(String, f64)> {
     let world = rig.app.world();
     let Some(store) = world.get_resource::<bevy::diagnostic::DiagnosticsStore>() else {
-        return;
+        return Vec::new();
     };
     let mut spans: Vec<(String, f64)> = store
         .iter()
@@ -875,9 +893,10 @@ fn print_gpu_spans(rig: &mut CloudRig, preset: &str) {
     if spans.is_empty() {
         eprintln!("gpu_span,{preset}: no GPU spans (does the device have timestamp queries?)");
     }
-    for (pass, ms) in spans {
+    for (pass, ms) in &spans {
         eprintln!("gpu_span,{preset},{pass},{ms:.3}");
     }
+    spans
 }
 
 /// `count` copies of `layers` stacked one above the other, 100 m apart.
