@@ -257,7 +257,6 @@ fn bench_scenes() -> Vec<Scene> {
     scenes
 }
 
-/// Median of the wall time of `frames` frames.
 /// Renders frames until no render pipeline is waiting to compile (at most
 /// [`PIPELINE_WAIT_FRAMES`]). On software Vulkan a compile runs on the same CPU cores as the
 /// "GPU", so a frame timed while one is under way comes out several times too slow.
@@ -283,8 +282,8 @@ fn wait_for_pipelines(rig: &mut CloudRig) {
 /// Most frames [`wait_for_pipelines`] renders.
 const PIPELINE_WAIT_FRAMES: u32 = 600;
 
-/// The median of `frames` frame times, once the pipelines are compiled; the render diagnostics
-/// ([`print_gpu_spans`]) then hold these frames only.
+/// The median wall time of `frames` frames, once the pipelines are compiled; the render
+/// diagnostics ([`print_gpu_spans`]) then hold these frames only.
 fn median_frame_time(rig: &mut CloudRig, frames: u32) -> Duration {
     wait_for_pipelines(rig);
     clear_gpu_spans(rig);
@@ -793,6 +792,18 @@ fn time_growth(args: &Args) -> Result<(), String> {
     Ok(())
 }
 
+/// A rig of `size` with the render diagnostics when `--gpu-spans` reads them and the cloud
+/// shadow map as `--shadows` says.
+fn bench_rig(args: &Args, size: UVec2) -> CloudRig {
+    let mut rig = if args.gpu_spans {
+        CloudRig::with_gpu_spans(size, Msaa::Off, default())
+    } else {
+        CloudRig::new(size, Msaa::Off, default())
+    };
+    rig.app.world().resource_mut::<CloudShadows>().enabled = args.shadows;
+    rig
+}
+
 fn time_only(args: &Args) -> Result<(), String> {
     let path = args.out.join("times.csv");
     let mut csv = match std::fs::read_to_string(&path) {
@@ -812,12 +823,7 @@ fn time_only(args: &Args) -> Result<(), String> {
         args.sizes.clone()
     };
     for size in sizes {
-        let mut rig = if args.gpu_spans {
-            CloudRig::with_gpu_spans(size, Msaa::Off, default())
-        } else {
-            CloudRig::new(size, Msaa::Off, default())
-        };
-        rig.app.world().resource_mut::<CloudShadows>().enabled = args.shadows;
+        let mut rig = bench_rig(args, size);
         let scenes = bench_scenes()
             .into_iter()
             .filter(|s| args.scene.as_deref().is_none_or(|name| name == s.name));
@@ -949,8 +955,7 @@ fn run(args: &Args) -> Result<(), String> {
     if args.growth {
         return time_growth(args);
     }
-    let mut rig = CloudRig::new(args.size(), Msaa::Off, default());
-    rig.app.world().resource_mut::<CloudShadows>().enabled = args.shadows;
+    let mut rig = bench_rig(args, args.size());
     if args.effects_only {
         let effects = measure_effects(&mut rig, args.frames);
         let path = args.out.join("effects.csv");

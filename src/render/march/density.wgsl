@@ -230,8 +230,9 @@ fn shape_warp(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_base_m
     return (SHAPE_WARP * fine + SHAPE_WARP_BROAD * broad) * layer.shape_scale_m;
 }
 
-// Extinction (1/m) of layer `index` (of `cloud_layers`) at horizontal coordinates `horizontal_m` (along
-// `horizontal_axes`, relative to the camera) and `altitude_m`; `footprint_m` picks the mips;
+// Extinction (1/m) of layer `index` (of `cloud_layers`) at horizontal coordinates
+// `horizontal_m` (along `horizontal_axes`, relative to the camera) and `altitude_m`;
+// `footprint_m` picks the mips;
 // `with_detail = false` is the cheap base-only density (never below the full one).
 // Rust: `layer_density`.
 fn layer_density(index: u32, horizontal_m: vec2<f32>, altitude_m: f32, footprint_m: f32, with_detail: bool) -> f32 {
