@@ -6,7 +6,9 @@
 //! needs the layer's coverage at the texel (the blend toward far places, [`layer_coverage`]) and
 //! the coverage remap. The weather-map pass (`src/render/weather_map/`) computes them once per
 //! frame for a square of `size²` texels around the camera, one slice per layer, and the march
-//! reads the four taps from the map instead of recomputing them at every sample. Outside the
+//! reads the four taps from the map instead of recomputing them at every sample. Each texel also
+//! carries the weather noise's two curl channels, which the fine shape warp filters over the
+//! same four texels ([`shape_warp`]), so the march reads those from the map too. Outside the
 //! square the march computes the taps itself, so the map changes the cost and not the image.
 //!
 //! The map's texels are the weather noise's texels, not a resampling of them: texel `(i, j)` of
@@ -17,11 +19,12 @@
 //!
 //! [`layer_coverage`]: super::render::layer_coverage
 //! [`weather_coverage`]: super::render::weather_coverage
+//! [`shape_warp`]: super::render::shape_warp
 
-use super::render::{MarchLayer, NoiseTexture2d, weather_texel_coverage};
+use super::render::{MarchLayer, NoiseTexture2d, unorm8, weather_texel_coverage};
 
-/// Default side of each layer's weather map, texels (a slice of `size²` `R32Float` values, 1 MiB
-/// at 512). At the default cumulus weather period (12 km over 256 texels) it covers 24 km around
+/// Default side of each layer's weather map, texels (a slice of `size²` `Rgba32Float` values,
+/// 4 MiB at 512). At the default cumulus weather period (12 km over 256 texels) it covers 24 km around
 /// the camera.
 pub const DEFAULT_WEATHER_MAP_SIZE: u32 = 512;
 
@@ -51,20 +54,28 @@ pub fn weather_map_holds(origin: [i64; 2], size: u32, texel: [i64; 2]) -> bool {
     })
 }
 
-/// One layer's weather map: `size²` values of [`weather_texel_coverage`], x fastest, texel
-/// `(i, j)` holding weather texel `origin + (i, j)`. The GPU pass writes the same values in f32.
+/// One layer's weather map: `size²` texels, x fastest, texel `(i, j)` holding weather texel
+/// `origin + (i, j)`: its [`weather_texel_coverage`] and the weather noise's curl channels (B, A)
+/// there, 0–1 as an `Rgba8Unorm` read gives them. The GPU pass writes the same values in f32.
 /// WGSL twin: `build_weather_map` in `src/render/weather_map/weather_map.wgsl`.
 pub fn build_weather_map(
     weather: &NoiseTexture2d,
     layer: &MarchLayer,
     origin: [i64; 2],
     size: u32,
-) -> Vec<f64> {
+) -> Vec<[f64; 3]> {
     let size = i64::from(size);
+    let n = i64::from(weather.size.max(1));
     (0..size * size)
         .map(|i| {
             let texel = [origin[0] + i % size, origin[1] + i / size];
-            weather_texel_coverage(weather, layer, texel)
+            let noise =
+                weather.texels[(texel[0].rem_euclid(n) + n * texel[1].rem_euclid(n)) as usize];
+            [
+                weather_texel_coverage(weather, layer, texel),
+                unorm8(noise[2]),
+                unorm8(noise[3]),
+            ]
         })
         .collect()
 }
@@ -73,7 +84,7 @@ pub fn build_weather_map(
 mod tests {
     use super::*;
     use crate::reference::noise::{NoiseRecipe, generate_weather};
-    use crate::reference::render::{weather_coverage, weather_taps};
+    use crate::reference::render::{curl_look_up, weather_coverage, weather_taps};
 
     fn weather() -> NoiseTexture2d {
         let recipe = NoiseRecipe {
@@ -97,14 +108,22 @@ mod tests {
         layer
     }
 
-    /// Bilinear read of a map, as the march does inside it.
-    fn read_map(map: &[f64], origin: [i64; 2], size: u32, taps: [[(i64, f64); 2]; 2]) -> f64 {
-        let mut sum = 0.0;
+    /// Bilinear read of a map, as the march does inside it: the coverage and the curl as
+    /// `2c − 1`.
+    fn read_map(
+        map: &[[f64; 3]],
+        origin: [i64; 2],
+        size: u32,
+        taps: [[(i64, f64); 2]; 2],
+    ) -> [f64; 3] {
+        let mut sum = [0.0, -1.0, -1.0];
         for corner in 0..4_usize {
             let (x, wx) = taps[0][corner & 1];
             let (y, wy) = taps[1][corner >> 1];
             let local = (x - origin[0]) as usize + size as usize * (y - origin[1]) as usize;
-            sum += wx * wy * map[local];
+            for (c, (s, v)) in sum.iter_mut().zip(map[local]).enumerate() {
+                *s += wx * wy * if c == 0 { v } else { 2.0 * v };
+            }
         }
         sum
     }
@@ -118,6 +137,7 @@ mod tests {
         let map = build_weather_map(&weather, &layer, origin, size);
         let mut inside = 0;
         let mut varied = 0;
+        let mut curled = 0;
         for i in 0..400 {
             // Points within about ±1.5 km of the camera, at heights through the layer.
             let x = ((i * 37) % 61) as f64 * 50.0 - 1500.0;
@@ -137,16 +157,29 @@ mod tests {
             }
             if weather_map_holds(origin, size, [taps[0][0].0, taps[1][0].0]) {
                 inside += 1;
-                let cached = read_map(&map, origin, size, taps);
+                let [cached, curl @ ..] = read_map(&map, origin, size, taps);
+                // Only rounding may differ: both sides sum the same four products in f64.
                 assert!(
                     (cached - direct).abs() < 1e-12,
                     "{cached} vs {direct} at {x}, {z}"
                 );
+                let fine = curl_look_up(&weather, taps);
+                for (c, f) in curl.iter().zip(fine) {
+                    assert!(
+                        (c - f).abs() < 1e-12,
+                        "curl {curl:?} vs {fine:?} at {x}, {z}"
+                    );
+                }
+                if fine.iter().any(|f| f.abs() > 0.1) {
+                    curled += 1;
+                }
             }
         }
-        // The test means something: most points fall in the map and the coverage varies there.
+        // The test means something: most points fall in the map, and the coverage and the curl
+        // vary there.
         assert!(inside > 300, "{inside}");
         assert!(varied > 50, "{varied}");
+        assert!(curled > 50, "{curled}");
     }
 
     #[test]

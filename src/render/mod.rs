@@ -144,11 +144,13 @@ pub struct VolumetricClouds {
     /// limit).
     pub light_steps_per_footprint: f32,
     /// Side of each layer's weather map, in weather-noise texels ([`weather_map`]): the march
-    /// reads a layer's local coverage from the map within `weather_map_size / 2` texels of the
-    /// camera (12 km for cumulus at the default 512) and computes it at each sample farther out.
-    /// The image is the same either way; the map saves the coverage arithmetic near the camera
-    /// for one compute thread per texel and layer each frame. Clamped to the device's largest
-    /// texture (at most 8192); below 2 turns the map off. Default 512.
+    /// reads a layer's local coverage and the fine warp's curl from the map within
+    /// `weather_map_size / 2` texels of the camera (12 km for cumulus at the default 512) and
+    /// computes them at each sample farther out. The image is the same either way; the map saves
+    /// the coverage arithmetic and half the weather-noise reads near the camera for one compute
+    /// thread per texel and layer each frame, and `16 × weather_map_size²` bytes of GPU memory
+    /// per layer. Clamped to the device's largest texture (at most 8192); below 2 turns the map
+    /// off. Default 512.
     pub weather_map_size: u32,
     /// Set to true to make the temporal accumulation start over this frame: the frame is
     /// marched as if there were no history, which drops what the previous frames showed. Use it

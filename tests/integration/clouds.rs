@@ -1188,17 +1188,20 @@ fn weather_map_matches_the_cpu_and_changes_the_cost_not_the_image() {
                 .clone();
             let bytes = rig.app.read_texture(&texture, 0);
             let side = map_size as usize;
-            assert_eq!(bytes.len(), side * side * view.layers.len() * 4);
+            assert_eq!(bytes.len(), side * side * view.layers.len() * 16);
             let mut worst = 0.0f64;
             let mut partial = 0;
             for (slice, layer) in view.layers.iter().enumerate() {
                 let origin = weather_map_origin(layer, recipe.weather_size, map_size);
                 let cpu = build_weather_map(&textures.weather, layer, origin, map_size);
-                for (i, kappa) in cpu.iter().enumerate() {
-                    let at = 4 * (slice * side * side + i);
-                    let gpu = f32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
-                    worst = worst.max((f64::from(gpu) - kappa).abs());
-                    partial += usize::from(*kappa > 0.0 && *kappa < 1.0);
+                for (i, texel) in cpu.iter().enumerate() {
+                    let at = 16 * (slice * side * side + i);
+                    for (c, value) in texel.iter().enumerate() {
+                        let channel = &bytes[at + 4 * c..at + 4 * c + 4];
+                        let gpu = f32::from_le_bytes(channel.try_into().unwrap());
+                        worst = worst.max((f64::from(gpu) - value).abs());
+                    }
+                    partial += usize::from(texel[0] > 0.0 && texel[0] < 1.0);
                 }
             }
             eprintln!("weather map {name}: texels max |GPU - CPU| {worst:.2e}, {partial} partial");

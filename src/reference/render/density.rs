@@ -285,7 +285,7 @@ pub const BROAD_WARP_PERIODS: f64 = 32.0;
 /// The weather noise's curl (channels B and A, each `0.5 + 0.5 · curl / range`) as `2c − 1`
 /// per axis, −1 to 1, filtered bilinearly from the four weather texels of `taps`
 /// ([`weather_taps`] per axis). WGSL twin: `curl_look_up`.
-pub(super) fn curl_look_up(weather: &NoiseTexture2d, taps: [[(i64, f64); 2]; 2]) -> [f64; 2] {
+pub(crate) fn curl_look_up(weather: &NoiseTexture2d, taps: [[(i64, f64); 2]; 2]) -> [f64; 2] {
     let size = i64::from(weather.size.max(1));
     let mut curl = [0.0; 2];
     for corner in 0..4_usize {

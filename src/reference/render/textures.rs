@@ -149,7 +149,7 @@ impl NoiseTexture2d {
 }
 
 /// The value an `Rgba8Unorm` byte reads as.
-pub(super) fn unorm8(byte: u8) -> f64 {
+pub(crate) fn unorm8(byte: u8) -> f64 {
     f64::from(byte) / 255.0
 }
 

@@ -172,14 +172,15 @@ fn weather_look_up(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_b
     return uv * size - 0.5;
 }
 
-// Local coverage of a layer at `horizontal_m`, `height_above_base_m` up: the bilinear filter of
-// `weather_texel_coverage` over the four texels around the skewed weather look-up, filtered here
-// from texel values rather than by a sampler (the coverage ramp multiplies errors by about 7, and
-// hardware filtering is not exact: lavapipe rounds filtered Rgba8Unorm to 1/255). The march reads
-// the four values from its weather map when the map holds them; elsewhere, and in the passes that
-// bind no map, it computes them. Rust: `weather_coverage`.
-fn weather_coverage(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_base_m: f32) -> f32 {
-    let x = weather_look_up(layer, horizontal_m, height_above_base_m);
+// The weather at the skewed weather look-up `x` (`weather_look_up`): x the local coverage, the
+// bilinear filter of `weather_texel_coverage` over the four texels around the look-up, filtered
+// here from texel values rather than by a sampler (the coverage ramp multiplies errors by about
+// 7, and hardware filtering is not exact: lavapipe rounds filtered Rgba8Unorm to 1/255). The
+// march reads the four texels from its weather map when the map holds them, and then y and z are
+// the fine curl of the same four texels (`curl_look_up` of `x`) and w is 1; elsewhere, and in
+// the passes that bind no map, it computes the coverage and w is 0 (y, z unset: the caller calls
+// `curl_look_up` when it needs the curl). Rust: `weather_coverage` and `curl_look_up`.
+fn weather_sample(layer: CloudLayerGpu, x: vec2<f32>) -> vec4<f32> {
     let cell = floor(x);
     let weight = x - cell;
     let texel = vec2<i32>(cell);
@@ -189,18 +190,25 @@ fn weather_coverage(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_
     let last = i32(map.w) - 2;
     if map.w >= 2.0 && all(local >= vec2<i32>(0)) && all(local <= vec2<i32>(last)) {
         let slice = i32(map.z);
-        let k00 = textureLoad(weather_map, local, slice, 0).x;
-        let k10 = textureLoad(weather_map, local + vec2<i32>(1, 0), slice, 0).x;
-        let k01 = textureLoad(weather_map, local + vec2<i32>(0, 1), slice, 0).x;
-        let k11 = textureLoad(weather_map, local + vec2<i32>(1, 1), slice, 0).x;
-        return mix(mix(k00, k10, weight.x), mix(k01, k11, weight.x), weight.y);
+        let t00 = textureLoad(weather_map, local, slice, 0).xyz;
+        let t10 = textureLoad(weather_map, local + vec2<i32>(1, 0), slice, 0).xyz;
+        let t01 = textureLoad(weather_map, local + vec2<i32>(0, 1), slice, 0).xyz;
+        let t11 = textureLoad(weather_map, local + vec2<i32>(1, 1), slice, 0).xyz;
+        let filtered = mix(mix(t00, t10, weight.x), mix(t01, t11, weight.x), weight.y);
+        return vec4<f32>(filtered.x, 2.0 * filtered.yz - 1.0, 1.0);
     }
 #endif
     let k00 = weather_texel_coverage(layer, texel);
     let k10 = weather_texel_coverage(layer, texel + vec2<i32>(1, 0));
     let k01 = weather_texel_coverage(layer, texel + vec2<i32>(0, 1));
     let k11 = weather_texel_coverage(layer, texel + vec2<i32>(1, 1));
-    return mix(mix(k00, k10, weight.x), mix(k01, k11, weight.x), weight.y);
+    return vec4<f32>(mix(mix(k00, k10, weight.x), mix(k01, k11, weight.x), weight.y), 0.0, 0.0, 0.0);
+}
+
+// Local coverage of a layer at `horizontal_m`, `height_above_base_m` up (`weather_sample`).
+// Rust: `weather_coverage`.
+fn weather_coverage(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_base_m: f32) -> f32 {
+    return weather_sample(layer, weather_look_up(layer, horizontal_m, height_above_base_m)).x;
 }
 
 // The weather noise's curl (B, A) as 2c - 1 per axis, filtered bilinearly from texel loads at
@@ -219,11 +227,11 @@ fn curl_look_up(x: vec2<f32>) -> vec2<f32> {
 }
 
 // Displacement (metres) of the base-shape look-up, so repeats of the shape do not add up to
-// streaks along grazing rays: the fine warp, +-SHAPE_WARP of the shape period from the curl at
-// the look-up `weather_coverage` uses, plus the broad warp, +-SHAPE_WARP_BROAD of the period
-// from the curl over BROAD_WARP_PERIODS shape periods (no skew). Rust: `shape_warp`.
-fn shape_warp(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_base_m: f32) -> vec2<f32> {
-    let fine = curl_look_up(weather_look_up(layer, horizontal_m, height_above_base_m));
+// streaks along grazing rays: the fine warp, +-SHAPE_WARP of the shape period from `fine`, the
+// curl at the look-up `weather_coverage` uses (`weather_sample`), plus the broad warp,
+// +-SHAPE_WARP_BROAD of the period from the curl over BROAD_WARP_PERIODS shape periods (no
+// skew). Rust: `shape_warp`.
+fn shape_warp(layer: CloudLayerGpu, horizontal_m: vec2<f32>, fine: vec2<f32>) -> vec2<f32> {
     let size = f32(textureDimensions(weather_noise).x);
     let broad_uv = (horizontal_m + layer.warp_offset_m) / (BROAD_WARP_PERIODS * layer.shape_scale_m);
     let broad = curl_look_up(broad_uv * size - 0.5);
@@ -243,7 +251,9 @@ fn layer_density(index: u32, horizontal_m: vec2<f32>, altitude_m: f32, footprint
     }
     let height_above_base = altitude_m - layer.base_m;
     let height_fraction = height_above_base / (layer.top_m - layer.base_m);
-    let kappa = weather_coverage(layer, horizontal_m, height_above_base);
+    let look_up = weather_look_up(layer, horizontal_m, height_above_base);
+    let weather = weather_sample(layer, look_up);
+    let kappa = weather.x;
     if !(kappa > 0.0) {
         return 0.0;
     }
@@ -255,7 +265,11 @@ fn layer_density(index: u32, horizontal_m: vec2<f32>, altitude_m: f32, footprint
     let strength = saturate(layer.shape_strength);
     var shape = 1.0;
     if strength > 0.0 {
-        let warp = shape_warp(layer, horizontal_m, height_above_base);
+        var fine = weather.yz;
+        if weather.w == 0.0 {
+            fine = curl_look_up(look_up);
+        }
+        let warp = shape_warp(layer, horizontal_m, fine);
         let uvw = vec3<f32>(horizontal_m.x + layer.noise_offset_m.x + warp.x, altitude_m, horizontal_m.y + layer.noise_offset_m.y + warp.y)
             / layer.shape_scale_m;
         let texel_m = layer.shape_scale_m / f32(textureDimensions(base_noise).x);

@@ -1,5 +1,5 @@
-//! The weather map: per view, each cloud layer's local coverage on the weather noise's texels
-//! around the camera, one slice of an `R32Float` array per layer.
+//! The weather map: per view, each cloud layer's local coverage and the weather noise's curl on
+//! the weather noise's texels around the camera, one slice of an `Rgba32Float` array per layer.
 //!
 //! # What it caches
 //!
@@ -10,7 +10,9 @@
 //! pass (`weather_map.wgsl`) writes them once per frame for a square of
 //! [`VolumetricClouds::weather_map_size`]² texels centred on the camera; the march reads the four
 //! values from the map where it holds them and computes them itself elsewhere, so the map
-//! changes what a sample costs and not what it sees. The CPU twin is
+//! changes what a sample costs and not what it sees. Each texel also holds the weather noise's
+//! two curl channels there, which the fine shape warp filters over the same four texels
+//! (`shape_warp`), so a sample inside the map reads four texels instead of eight. The CPU twin is
 //! [`crate::reference::weather_map`].
 //!
 //! # Scrolling with the wind
@@ -26,7 +28,7 @@
 //! # Cost
 //!
 //! One thread per texel and layer each frame: 512² × layers by default, each reading one weather
-//! texel. A layer with no coverage is not sent to the GPU and gets no slice.
+//! texel. Each slice takes `16 × size²` bytes (4 MiB at the default 512). A layer with no coverage is not sent to the GPU and gets no slice.
 //!
 //! [`VolumetricClouds::weather_map_size`]: super::VolumetricClouds::weather_map_size
 
@@ -55,8 +57,9 @@ use crate::reference::{
     weather_map::{MAX_WEATHER_MAP_SIZE, weather_map_origin},
 };
 
-/// Texel format of the weather map: one f32 of local coverage, 0–1.
-pub(crate) const WEATHER_MAP_FORMAT: TextureFormat = TextureFormat::R32Float;
+/// Texel format of the weather map: the local coverage, 0–1, and the weather noise's two curl
+/// channels as read, 0–1 (the fourth channel unused).
+pub(crate) const WEATHER_MAP_FORMAT: TextureFormat = TextureFormat::Rgba32Float;
 
 /// Registers `weather_map.wgsl`.
 pub(crate) fn load_weather_map_shader(app: &mut App) {

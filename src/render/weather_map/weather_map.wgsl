@@ -1,9 +1,12 @@
-// The weather map: each layer's local coverage per weather texel around the camera, one array
-// slice per layer, which the march reads instead of recomputing the coverage at every sample.
+// The weather map: each layer's local coverage and the weather noise's curl per weather texel
+// around the camera, one array slice per layer, which the march reads instead of recomputing the
+// coverage and reloading the curl at every sample.
 // Rust side: `src/render/weather_map/mod.rs`; CPU twin: `src/reference/weather_map.rs`.
 
 #import bevy_cloudscape::cloud_parameters::cloud_layers
 #import bevy_cloudscape::cloud_density::weather_texel_coverage
+#import bevy_cloudscape::cloud_geometry::wrap_texel
+#import bevy_cloudscape::cloud_textures::weather_noise
 
 // 16 bytes. Mirror in Rust: `GpuWeatherMapUniforms`.
 struct WeatherMapUniforms {
@@ -15,11 +18,12 @@ struct WeatherMapUniforms {
     pad1: u32,
 }
 
-@group(0) @binding(0) var weather_map_out: texture_storage_2d_array<r32float, write>;
+@group(0) @binding(0) var weather_map_out: texture_storage_2d_array<rgba32float, write>;
 @group(0) @binding(1) var<uniform> map: WeatherMapUniforms;
 
 // Texel (i, j) of slice s holds weather texel origin + (i, j) of layer s, where the origin is the
-// layer's `weather_map.xy`. Rust: `build_weather_map`.
+// layer's `weather_map.xy`: its local coverage and the weather noise's curl channels (B, A) as
+// read, 0-1. Rust: `build_weather_map`.
 @compute @workgroup_size(8, 8, 1)
 fn build_weather_map(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= map.size || id.y >= map.size || id.z >= map.slices {
@@ -28,5 +32,6 @@ fn build_weather_map(@builtin(global_invocation_id) id: vec3<u32>) {
     let layer = cloud_layers[id.z];
     let texel = vec2<i32>(layer.weather_map.xy) + vec2<i32>(id.xy);
     let kappa = weather_texel_coverage(layer, texel);
-    textureStore(weather_map_out, vec2<i32>(id.xy), i32(id.z), vec4<f32>(kappa, 0.0, 0.0, 0.0));
+    let curl = textureLoad(weather_noise, wrap_texel(texel, vec2<i32>(textureDimensions(weather_noise))), 0).zw;
+    textureStore(weather_map_out, vec2<i32>(id.xy), i32(id.z), vec4<f32>(kappa, curl, 0.0));
 }
