@@ -229,13 +229,13 @@ mod tests {
         assert!(
             build_weather_map(&weather, &layer, origin, 8)
                 .iter()
-                .all(|&k| k == 1.0)
+                .all(|&[k, ..]| k == 1.0)
         );
         layer.coverage = 0.0;
         assert!(
             build_weather_map(&weather, &layer, origin, 8)
                 .iter()
-                .all(|&k| k == 0.0)
+                .all(|&[k, ..]| k == 0.0)
         );
     }
 }
