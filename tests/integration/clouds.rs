@@ -1106,7 +1106,7 @@ fn weather_map_matches_the_cpu_and_changes_the_cost_not_the_image() {
     use bevy_cloudscape::{
         layers::FarCoverage,
         reference::weather_map::{build_weather_map, weather_map_origin},
-        render::weather_map::CloudWeatherMap,
+        render::{noise::CloudNoiseTextures, weather_map::CloudWeatherMap},
     };
     let size = UVec2::new(64, 36);
     let recipe = small_recipe();
@@ -1186,7 +1186,16 @@ fn weather_map_matches_the_cpu_and_changes_the_cost_not_the_image() {
                 .expect("the view has a weather map")
                 .texture()
                 .clone();
+            let noise = world
+                .resource::<CloudNoiseTextures>()
+                .weather
+                .texture
+                .clone();
             let bytes = rig.app.read_texture(&texture, 0);
+            // The curl channels are copies of the weather noise's bytes as the GPU made them.
+            let noise_bytes = rig.app.read_texture(&noise, 0);
+            let n = i64::from(recipe.weather_size);
+            assert_eq!(noise_bytes.len(), (4 * n * n) as usize);
             let side = map_size as usize;
             assert_eq!(bytes.len(), side * side * view.layers.len() * 16);
             let mut worst = 0.0f64;
@@ -1202,8 +1211,12 @@ fn weather_map_matches_the_cpu_and_changes_the_cost_not_the_image() {
                         f64::from(f32::from_le_bytes(channel.try_into().unwrap()))
                     };
                     worst = worst.max((gpu(0) - texel[0]).abs());
-                    for c in 1..3 {
-                        worst_curl = worst_curl.max((gpu(c) - texel[c]).abs());
+                    let at_noise = |a: i64| a.rem_euclid(n);
+                    let (x, y) = (origin[0] + (i % side) as i64, origin[1] + (i / side) as i64);
+                    let noise_at = 4 * (at_noise(x) + n * at_noise(y)) as usize;
+                    for (c, byte) in [(1, 2), (2, 3)] {
+                        let expected = f64::from(noise_bytes[noise_at + byte]) / 255.0;
+                        worst_curl = worst_curl.max((gpu(c) - expected).abs());
                     }
                     partial += usize::from(texel[0] > 0.0 && texel[0] < 1.0);
                 }
@@ -1213,12 +1226,8 @@ fn weather_map_matches_the_cpu_and_changes_the_cost_not_the_image() {
                  {partial} partial"
             );
             assert!(worst < 1e-5, "{name}: map coverage off by {worst}");
-            // The curl channels are the weather noise's Rgba8Unorm bytes as the GPU generated
-            // them; the f64 generator may round a value on a step's edge to the next step.
-            assert!(
-                worst_curl < 1.0 / 255.0 + 1e-6,
-                "{name}: map curl off by {worst_curl}"
-            );
+            // f32 holds byte / 255 to within half an ulp.
+            assert!(worst_curl < 1e-6, "{name}: map curl off by {worst_curl}");
             assert!(
                 partial > side,
                 "{name}: the map must hold cloud edges ({partial})"
