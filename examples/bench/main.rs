@@ -200,25 +200,56 @@ fn knob(text: &str) -> Result<(String, String), String> {
         .ok_or_else(|| format!("{text:?} is not FIELD=VALUE"))
 }
 
-/// `settings` with the `--set` knobs applied, through reflection.
+/// The prefix of a `--set` knob that changes [`CloudShadows`] rather than the preset.
+const SHADOW_KNOB: &str = "shadows.";
+
+/// `settings` with the `--set` knobs applied, through reflection (those of [`SHADOW_KNOB`] go to
+/// [`with_shadow_knobs`]).
 fn with_knobs(
     mut settings: VolumetricClouds,
     knobs: &[(String, String)],
 ) -> Result<VolumetricClouds, String> {
+    let ours = knobs.iter().filter(|(f, _)| !f.starts_with(SHADOW_KNOB));
+    set_fields(&mut settings, ours, "VolumetricClouds")?;
+    Ok(settings)
+}
+
+/// The cloud shadow map's settings with the `--set shadows.FIELD=VALUE` knobs applied.
+fn with_shadow_knobs(
+    mut shadows: CloudShadows,
+    knobs: &[(String, String)],
+) -> Result<CloudShadows, String> {
+    let ours = knobs
+        .iter()
+        .filter_map(|(f, v)| Some((f.strip_prefix(SHADOW_KNOB)?.to_owned(), v.clone())));
+    set_fields(
+        &mut shadows,
+        ours.collect::<Vec<_>>().iter(),
+        "CloudShadows",
+    )?;
+    Ok(shadows)
+}
+
+/// Sets each `FIELD=VALUE` on `target` (a `kind`) through reflection.
+fn set_fields<'a, T: bevy::reflect::Reflect>(
+    target: &mut T,
+    knobs: impl Iterator<Item = &'a (String, String)>,
+    kind: &str,
+) -> Result<(), String> {
     use bevy::reflect::GetPath;
     for (field, value) in knobs {
         let bad = |e: &dyn std::fmt::Display| format!("--set {field}={value}: {e}");
-        if let Ok(v) = settings.path_mut::<f32>(field.as_str()) {
+        if let Ok(v) = target.path_mut::<f32>(field.as_str()) {
             *v = value.parse().map_err(|e| bad(&e))?;
-        } else if let Ok(v) = settings.path_mut::<u32>(field.as_str()) {
+        } else if let Ok(v) = target.path_mut::<u32>(field.as_str()) {
             *v = value.parse().map_err(|e| bad(&e))?;
-        } else if let Ok(v) = settings.path_mut::<bool>(field.as_str()) {
+        } else if let Ok(v) = target.path_mut::<bool>(field.as_str()) {
             *v = value.parse().map_err(|e| bad(&e))?;
         } else {
-            return Err(bad(&"no such f32, u32 or bool field of VolumetricClouds"));
+            return Err(bad(&format!("no such f32, u32 or bool field of {kind}")));
         }
     }
-    Ok(settings)
+    Ok(())
 }
 
 /// Primary steps per interval of the converged reference (`--reference-steps`).
@@ -691,13 +722,23 @@ fn cached_reference(args: &Args, rig: &mut CloudRig, scene: &Scene) -> Result<Me
     let Some(dir) = &args.reference_cache else {
         return Ok(measure(rig, scene, &settings, args.frames, true));
     };
+    // The shadow knobs change the reference's ground shadows: they name it too.
+    let shadow_knobs: String = args
+        .knobs
+        .iter()
+        .filter_map(|(f, v)| Some(format!("_{}{v}", f.strip_prefix(SHADOW_KNOB)?)))
+        .collect();
     let path = dir.join(format!(
         "{}_{}x{}_{}{}.bin",
         scene.name,
         args.width,
         args.height,
         args.reference_steps,
-        if args.shadows { "_shadows" } else { "" }
+        if args.shadows {
+            format!("_shadows{shadow_knobs}")
+        } else {
+            String::new()
+        }
     ));
     let pixels = (args.width * args.height) as usize;
     if let Ok(bytes) = std::fs::read(&path)
@@ -794,14 +835,18 @@ fn time_growth(args: &Args) -> Result<(), String> {
 
 /// A rig of `size` with the render diagnostics when `--gpu-spans` reads them and the cloud
 /// shadow map as `--shadows` says.
-fn bench_rig(args: &Args, size: UVec2) -> CloudRig {
+fn bench_rig(args: &Args, size: UVec2) -> Result<CloudRig, String> {
     let mut rig = if args.gpu_spans {
         CloudRig::with_gpu_spans(size, Msaa::Off, default())
     } else {
         CloudRig::new(size, Msaa::Off, default())
     };
-    rig.app.world().resource_mut::<CloudShadows>().enabled = args.shadows;
-    rig
+    let shadows = CloudShadows {
+        enabled: args.shadows,
+        ..with_shadow_knobs(CloudShadows::default(), &args.knobs)?
+    };
+    *rig.app.world().resource_mut::<CloudShadows>() = shadows;
+    Ok(rig)
 }
 
 fn time_only(args: &Args) -> Result<(), String> {
@@ -823,7 +868,7 @@ fn time_only(args: &Args) -> Result<(), String> {
         args.sizes.clone()
     };
     for size in sizes {
-        let mut rig = bench_rig(args, size);
+        let mut rig = bench_rig(args, size)?;
         let scenes = bench_scenes()
             .into_iter()
             .filter(|s| args.scene.as_deref().is_none_or(|name| name == s.name));
@@ -955,7 +1000,7 @@ fn run(args: &Args) -> Result<(), String> {
     if args.growth {
         return time_growth(args);
     }
-    let mut rig = bench_rig(args, args.size());
+    let mut rig = bench_rig(args, args.size())?;
     if args.effects_only {
         let effects = measure_effects(&mut rig, args.frames);
         let path = args.out.join("effects.csv");

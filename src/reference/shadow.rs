@@ -30,7 +30,8 @@
 //! # Texel layout
 //!
 //! [`ShadowMapFrame`] places the map: a centre, and two axes perpendicular to the sun whose
-//! lengths are half the map's extent. Texel `(i, j)` of an `n × n` map (row `j` from the top) is
+//! lengths are half the map's extent along each (the plugin fits each to the sky it covers, so
+//! with a low sun one is far shorter and its texels finer). Texel `(i, j)` of an `n × n` map (row `j` from the top) is
 //! the line through `centre + (1 − 2u)·axis_x + (2v − 1)·axis_y` with `u = (i + ½)/n`,
 //! `v = (j + ½)/n`: the mapping Bevy's `DirectionalLightTexture` uses to project a light's
 //! texture (`uv = local.xy · (−½, ½) + ½` in the light's scaled frame), so the map can be that
@@ -110,9 +111,24 @@ impl ShadowMapFrame {
         )
     }
 
-    /// Side of one texel, m (the footprint the shadow march picks noise mips with).
+    /// Side of one texel along the map's coarser axis, m: how far apart the sun lines the map
+    /// blends lie at most (the march reads the map only beyond a few of these).
     pub fn texel_m(&self) -> f64 {
-        2.0 * dot(self.axis_x_m, self.axis_x_m).sqrt() / f64::from(self.size.max(1))
+        self.texel_sides_m()[1]
+    }
+
+    /// Side of one texel along the map's finer axis, m: the footprint the shadow march picks
+    /// noise mips with, so the map keeps the detail its finer axis resolves.
+    pub fn fine_texel_m(&self) -> f64 {
+        self.texel_sides_m()[0]
+    }
+
+    /// The texel's two sides, shorter first, m.
+    fn texel_sides_m(&self) -> [f64; 2] {
+        let n = f64::from(self.size.max(1));
+        let x = 2.0 * dot(self.axis_x_m, self.axis_x_m).sqrt() / n;
+        let y = 2.0 * dot(self.axis_y_m, self.axis_y_m).sqrt() / n;
+        [x.min(y), x.max(y)]
     }
 }
 
@@ -360,7 +376,7 @@ pub fn cloud_shadow_map_texels(
     frame: &ShadowMapFrame,
     steps: u32,
 ) -> Vec<[f64; 4]> {
-    let footprint = frame.texel_m();
+    let footprint = frame.fine_texel_m();
     (0..frame.size)
         .flat_map(|j| (0..frame.size).map(move |i| (i, j)))
         .map(|(i, j)| {

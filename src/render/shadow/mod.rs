@@ -25,8 +25,12 @@
 //! - moves that light's translation over the camera, snapped to whole texels in the light's
 //!   plane (so the shadows do not shimmer as the camera moves) and lifted 1000 km toward the sun
 //!   (Bevy also treats a light texture as a decal box around the light; up there it touches no
-//!   geometry), and sets its scale to half the extent (a directional light's translation and
-//!   scale do not change its lighting or its shadow cascades, which use the rotation only);
+//!   geometry), and sets its scale to half the map's extent along each axis (a directional
+//!   light's translation and scale do not change its lighting or its shadow cascades, which use
+//!   the rotation only). Each axis is fitted to the sky the map covers: a disc
+//!   [`CloudShadows::extent_m`] across under the camera, from the ground to the highest cloud
+//!   top, seen along the sun. With a low sun the axis in the sun's vertical plane shrinks to a
+//!   few kilometres, so its texels stay tens of metres apart across the cloud;
 //! - writes the map into the image on the GPU each frame.
 //!
 //! The alternatives were worse: a material extension reaches only the materials it wraps, and a
@@ -101,7 +105,8 @@ pub struct CloudShadows {
     /// Texels per side of the map, 16–4096. Default 256 (156 m texels over 40 km: a 1 km
     /// cumulus shadow spans six).
     pub resolution: u32,
-    /// Side of the square the map covers, metres, centred on the camera. Default 40 000.
+    /// Width of the ground the map covers, metres: a disc centred under the camera, and the sky
+    /// above it up to the highest cloud top. Default 40 000.
     pub extent_m: f32,
     /// Samples per layer along each sun line, 1–64. Default 12.
     pub steps: u32,
@@ -271,6 +276,8 @@ fn place_cloud_shadow_map(
         With<DirectionalLight>,
     >,
     cameras: Query<(&Camera, &VolumetricClouds, &GlobalTransform)>,
+    layers: Query<&CloudLayer>,
+    world: Option<Res<CloudWorld>>,
 ) {
     let Some(mut images) = images else {
         return;
@@ -320,17 +327,57 @@ fn place_cloud_shadow_map(
     let Some((_, camera)) = shadow_camera(cameras.iter()) else {
         return;
     };
-    // The map's frame: the light's rotation, centred on the camera snapped to whole texels in
-    // the light's plane, scaled to half the extent.
+    // The map's frame: the light's rotation, each axis scaled to fit the slab of sky the map
+    // covers, centred on that slab snapped to whole texels in the light's plane.
+    let world = world.as_deref().cloned().unwrap_or_default().sanitized();
+    let position = camera.translation().as_dvec3();
+    let up = (position - world.planet_centre_m(position)).normalize_or(DVec3::Y);
+    let camera_altitude_m =
+        (position - world.planet_centre_m(position)).length() - f64::from(world.planet_radius_m);
+    let top_m = layers
+        .iter()
+        .map(CloudLayer::sanitized)
+        .filter(CloudLayer::is_visible)
+        .map(|layer| layer.top_m)
+        .fold(0.0_f32, f32::max);
+    let up = up.as_vec3();
     let rotation = transform.rotation;
     let (x, y, z) = (rotation * Vec3::X, rotation * Vec3::Y, rotation * Vec3::Z);
-    let texel = settings.extent_m / settings.resolution as f32;
-    let snap = |v: f32| (v / texel).round() * texel;
-    let c = camera.translation();
-    transform.translation =
-        x * snap(c.dot(x)) + y * snap(c.dot(y)) + z * (c.dot(z) + LIGHT_TEXTURE_LIFT_M);
-    let half = 0.5 * settings.extent_m;
-    transform.scale = Vec3::new(half, half, 1.0);
+    let half = Vec2::new(
+        fitted_half_extent(settings.extent_m, top_m, x.dot(up)),
+        fitted_half_extent(settings.extent_m, top_m, y.dot(up)),
+    );
+    let texel = 2.0 * half / settings.resolution as f32;
+    let snap = |v: f32, texel: f32| (v / texel).round() * texel;
+    // The slab's middle: over the ground under the camera, half way up to the highest top.
+    let c = camera.translation() + up * (0.5 * top_m - camera_altitude_m as f32);
+    transform.translation = x * snap(c.dot(x), texel.x)
+        + y * snap(c.dot(y), texel.y)
+        + z * (c.dot(z) + LIGHT_TEXTURE_LIFT_M);
+    transform.scale = half.extend(1.0);
+}
+
+/// Half the map's extent along one of its axes, metres: the half-width of the slab of sky it
+/// covers (a disc `extent_m` across on the ground, from the ground up to `top_m`) seen along the
+/// sun, for an axis whose dot product with the local vertical is `vertical`. With the sun high
+/// both axes span half the extent; with it low the axis in the sun's vertical plane spans far
+/// less (`extent_m / 2 · sin(elevation) + top_m / 2 · cos(elevation)`), so its texels stay fine
+/// across the cloud instead of a few stretched over kilometres of ground. Rounded up to a step
+/// of 2^(1/8), so a sun in motion changes the map's frame (and its texel grid) rarely; never
+/// above half the extent.
+fn fitted_half_extent(extent_m: f32, top_m: f32, vertical: f32) -> f32 {
+    const STEPS_PER_OCTAVE: f32 = 8.0;
+    let limit = 0.5 * extent_m;
+    if !vertical.is_finite() {
+        return limit;
+    }
+    let c = vertical.abs().min(1.0);
+    let needed = limit * (1.0 - c * c).sqrt() + 0.5 * top_m.max(0.0) * c;
+    if needed.is_nan() || needed <= 0.0 || needed >= limit {
+        return limit;
+    }
+    let octaves = ((limit / needed).log2() * STEPS_PER_OCTAVE).floor() / STEPS_PER_OCTAVE;
+    limit / octaves.exp2()
 }
 
 /// How far toward the sun the light's translation sits above the camera, metres.
@@ -497,7 +544,7 @@ impl GpuShadowUniforms {
             axis_y_m: v(frame.axis_y_m),
             size: frame.size,
             steps,
-            footprint_m: frame.texel_m() as f32,
+            footprint_m: frame.fine_texel_m() as f32,
             pad: 0,
             cloud_range_m: Vec4::new(
                 frame.cloud_range_m[0] as f32,
@@ -709,6 +756,31 @@ mod tests {
         assert_eq!(wild.resolution, 16);
         assert_eq!(wild.extent_m, CloudShadows::default().extent_m);
         assert_eq!(wild.steps, MAX_SHADOW_STEPS);
+    }
+
+    #[test]
+    fn map_axes_fit_the_sky_seen_along_the_sun() {
+        let (extent, top) = (40_000.0, 3_000.0);
+        // Sun overhead: both axes horizontal, half the extent each.
+        assert_eq!(fitted_half_extent(extent, top, 0.0), 20_000.0);
+        // Sun 4° up: the axis in the sun's vertical plane is cos 4° vertical; it spans the ground
+        // disc foreshortened by sin 4° plus the cloud's height, rounded up by at most 2^(1/8).
+        let elevation = 4.0_f32.to_radians();
+        let needed = 20_000.0 * elevation.sin() + 1_500.0 * elevation.cos();
+        let half = fitted_half_extent(extent, top, elevation.cos());
+        assert!(
+            half >= needed && half <= needed * 2.0_f32.powf(0.125),
+            "{half} for {needed}"
+        );
+        assert!(half < 0.2 * 20_000.0);
+        // The other axis stays horizontal.
+        assert_eq!(fitted_half_extent(extent, top, 0.0), 20_000.0);
+        // A small change of the sun keeps the same frame.
+        let nearby = fitted_half_extent(extent, top, 4.05_f32.to_radians().cos());
+        assert_eq!(nearby, half);
+        // Nonsense falls back to the whole extent.
+        assert_eq!(fitted_half_extent(extent, top, f32::NAN), 20_000.0);
+        assert_eq!(fitted_half_extent(extent, f32::NAN, 1.0), 20_000.0);
     }
 
     #[test]

@@ -17,7 +17,7 @@ struct ShadowUniforms {
     size: u32,
     // Samples per layer interval.
     steps: u32,
-    // Texel side, m: picks the noise mips.
+    // The texel's shorter side, m: picks the noise mips.
     footprint_m: f32,
     pad: u32,
     // xy: (bottom, top) of the layers, m (Rust: `ShadowMapFrame::cloud_range_m`).
