@@ -121,12 +121,13 @@ pub struct VolumetricClouds {
     /// four shadow-map texels toward the sun, in at most two steps, and read the rest of the way
     /// from the cloud shadow map ([`shadow::CloudShadows`]; where the map covers them). That
     /// is two density samples instead of [`VolumetricClouds::light_steps`], but the map is a
-    /// coarse stand-in for the light march: its texels (156 m at the default 40 km and 256²)
-    /// blur the clouds' edges, and under a low sun its bilinear blend mixes sun lines that pass
-    /// the same altitude kilometres apart, so a low sun's far clouds come out wrong. Without
-    /// a map (shadows off, night) the light march runs everywhere. Opt in for a large view of
-    /// far clouds under a high sun, where the light march's cost matters more than their
-    /// lighting. Default `f32::INFINITY` (never) in every preset.
+    /// coarse stand-in for the light march: its texels (156 m across the sun at the default
+    /// 40 km and 256²) blur the clouds' edges, and its few knots per sun line (the cloud top and
+    /// the altitudes of optical depths 1 and 4) miss how the depth grows along the long, nearly
+    /// level sun lines of a low sun, whose far clouds come out wrong. Without a map (shadows
+    /// off, night) the light march runs everywhere. Opt in for a large view of far clouds
+    /// under a high sun, where the light march's cost matters more than their lighting.
+    /// Default `f32::INFINITY` (never) in every preset.
     pub sun_from_shadow_map_m: f32,
     /// Shortest primary step, metres: a short interval (a thin layer, a fog bank the camera
     /// looks up through) is marched in fewer than [`VolumetricClouds::primary_steps`] steps, one
