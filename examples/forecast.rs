@@ -1,7 +1,5 @@
-//! Clouds from a weather forecast: the bundled meteoblue forecast for Bern sets the cloud
-//! layers, the haze and the rain, and the sun stands where it stood over Bern at that instant,
-//! over fields that lie in the clouds' shadows.
-//!
+//! Clouds from a weather forecast: the bundled meteoblue forecast for Bern sets the layers, the
+//! haze and the rain, and the sun stands where it stood over Bern, over fields in cloud shadow.
 //! ```text
 //! cargo run --release --example forecast -- [--time 2021-05-03T14:00:00Z]
 //! cargo run --release --example forecast -- --headless --out forecast.png
@@ -67,15 +65,14 @@ fn setup(
         ..default()
     };
     commands.spawn((light, Sun::default()));
-    // Fields to the horizon. The clouds' shadows dim only the direct sun: the sky lights them.
-    let field = StandardMaterial {
-        base_color: Color::srgb(0.32, 0.42, 0.22),
-        perceptual_roughness: 0.9,
-        ..default()
-    };
+    // Fields to the horizon, lit by the sun (dimmed in the clouds' shadows) and the sky.
     commands.spawn((
         Mesh3d(meshes.add(Plane3d::default().mesh().size(2e5, 2e5))),
-        MeshMaterial3d(materials.add(field)),
+        MeshMaterial3d(materials.add(StandardMaterial {
+            base_color: Color::srgb(0.32, 0.42, 0.22),
+            perceptual_roughness: 0.9,
+            ..default()
+        })),
     ));
     commands.spawn((
         common::sky_scene_camera(),
