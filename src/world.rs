@@ -129,6 +129,21 @@ impl CloudWorld {
             PlanetAnchor::Geocentric => bevy::math::DVec3::new(0.0, y, 0.0),
         }
     }
+
+    /// The local vertical (unit, world axes; +Y at the planet's centre) and the altitude above
+    /// the ground (metres) of a camera at `camera_m` (scene metres). Call on a
+    /// [sanitized](CloudWorld::sanitized) world.
+    #[must_use]
+    pub fn camera_up_and_altitude(&self, camera_m: bevy::math::DVec3) -> (bevy::math::DVec3, f64) {
+        let from_centre = camera_m - self.planet_centre_m(camera_m);
+        let distance = from_centre.length();
+        let up = if distance > 0.0 {
+            from_centre / distance
+        } else {
+            bevy::math::DVec3::Y
+        };
+        (up, distance - f64::from(self.planet_radius_m))
+    }
 }
 
 impl Default for CloudWorld {
@@ -209,5 +224,15 @@ mod tests {
             globe.planet_centre_m(camera),
             DVec3::new(0.0, 10.0 - r, 0.0)
         );
+        // Under the camera: straight up, 2 m − 10 m of ground below it, wherever it stands.
+        let (up, altitude) = world.camera_up_and_altitude(camera);
+        assert_eq!(up, DVec3::Y);
+        assert!((altitude + 8.0).abs() < 1e-6, "{altitude}");
+        // On the globe, 1414 km from the origin: the vertical tilts toward the camera, and the
+        // ground curves away below it.
+        let (up, altitude) = globe.camera_up_and_altitude(camera);
+        let from_centre = camera - globe.planet_centre_m(camera);
+        assert!((up - from_centre.normalize()).length() < 1e-12 && up.z < 0.0 && up.x > 0.0);
+        assert!((altitude - (from_centre.length() - r)).abs() < 1e-6 && altitude > 1.0e5);
     }
 }

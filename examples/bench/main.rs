@@ -209,7 +209,10 @@ fn with_knobs(
     mut settings: VolumetricClouds,
     knobs: &[(String, String)],
 ) -> Result<VolumetricClouds, String> {
-    let ours = knobs.iter().filter(|(f, _)| !f.starts_with(SHADOW_KNOB));
+    let ours = knobs
+        .iter()
+        .filter(|(f, _)| !f.starts_with(SHADOW_KNOB))
+        .map(|(f, v)| (f.as_str(), v.as_str()));
     set_fields(&mut settings, ours, "VolumetricClouds")?;
     Ok(settings)
 }
@@ -221,29 +224,25 @@ fn with_shadow_knobs(
 ) -> Result<CloudShadows, String> {
     let ours = knobs
         .iter()
-        .filter_map(|(f, v)| Some((f.strip_prefix(SHADOW_KNOB)?.to_owned(), v.clone())));
-    set_fields(
-        &mut shadows,
-        ours.collect::<Vec<_>>().iter(),
-        "CloudShadows",
-    )?;
+        .filter_map(|(f, v)| Some((f.strip_prefix(SHADOW_KNOB)?, v.as_str())));
+    set_fields(&mut shadows, ours, "CloudShadows")?;
     Ok(shadows)
 }
 
-/// Sets each `FIELD=VALUE` on `target` (a `kind`) through reflection.
+/// Sets each `(FIELD, VALUE)` on `target` (a `kind`) through reflection.
 fn set_fields<'a, T: bevy::reflect::Reflect>(
     target: &mut T,
-    knobs: impl Iterator<Item = &'a (String, String)>,
+    knobs: impl Iterator<Item = (&'a str, &'a str)>,
     kind: &str,
 ) -> Result<(), String> {
     use bevy::reflect::GetPath;
     for (field, value) in knobs {
         let bad = |e: &dyn std::fmt::Display| format!("--set {field}={value}: {e}");
-        if let Ok(v) = target.path_mut::<f32>(field.as_str()) {
+        if let Ok(v) = target.path_mut::<f32>(field) {
             *v = value.parse().map_err(|e| bad(&e))?;
-        } else if let Ok(v) = target.path_mut::<u32>(field.as_str()) {
+        } else if let Ok(v) = target.path_mut::<u32>(field) {
             *v = value.parse().map_err(|e| bad(&e))?;
-        } else if let Ok(v) = target.path_mut::<bool>(field.as_str()) {
+        } else if let Ok(v) = target.path_mut::<bool>(field) {
             *v = value.parse().map_err(|e| bad(&e))?;
         } else {
             return Err(bad(&format!("no such f32, u32 or bool field of {kind}")));

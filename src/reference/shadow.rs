@@ -31,8 +31,8 @@
 //!
 //! [`ShadowMapFrame`] places the map: a centre, and two axes perpendicular to the sun whose
 //! lengths are half the map's extent along each (the plugin fits each to the sky it covers, so
-//! with a low sun one is far shorter and its texels finer). Texel `(i, j)` of an `n × n` map (row `j` from the top) is
-//! the line through `centre + (1 − 2u)·axis_x + (2v − 1)·axis_y` with `u = (i + ½)/n`,
+//! with a low sun one is far shorter and its texels finer). Texel `(i, j)` of an `n × n` map
+//! (row `j` from the top) is the line through `centre + (1 − 2u)·axis_x + (2v − 1)·axis_y` with `u = (i + ½)/n`,
 //! `v = (j + ½)/n`: the mapping Bevy's `DirectionalLightTexture` uses to project a light's
 //! texture (`uv = local.xy · (−½, ½) + ½` in the light's scaled frame), so the map can be that
 //! texture directly.

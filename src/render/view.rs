@@ -93,13 +93,7 @@ pub fn march_inputs<'a>(
     let world = &world.sanitized();
     let radius = f64::from(world.planet_radius_m);
     let position = camera.translation().as_dvec3();
-    let from_centre = position - world.planet_centre_m(position);
-    let distance = from_centre.length();
-    let up = if distance > 0.0 {
-        from_centre / distance
-    } else {
-        DVec3::Y
-    };
+    let (up, camera_altitude_m) = world.camera_up_and_altitude(position);
 
     let mut march_layers = Vec::new();
     for (layer, drift) in layers {
@@ -116,7 +110,7 @@ pub fn march_inputs<'a>(
 
     let mut march = MarchSettings {
         planet_radius_m: radius,
-        camera_altitude_m: distance - radius,
+        camera_altitude_m,
         camera_up: up.to_array(),
         primary_steps: settings.primary_steps,
         light_steps: settings.light_steps,

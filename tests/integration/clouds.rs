@@ -1226,8 +1226,13 @@ fn weather_map_matches_the_cpu_and_changes_the_cost_not_the_image() {
                  {partial} partial"
             );
             assert!(worst < 1e-5, "{name}: map coverage off by {worst}");
-            // f32 holds byte / 255 to within half an ulp.
-            assert!(worst_curl < 1e-6, "{name}: map curl off by {worst_curl}");
+            // The pass stores the GPU's Rgba8Unorm read of the byte in f32: byte / 255, which a
+            // driver may compute as byte · (1 / 255) with two roundings, so within two ulps of 1.
+            let two_ulps = 2.0 * f64::from(f32::EPSILON);
+            assert!(
+                worst_curl <= two_ulps,
+                "{name}: map curl off by {worst_curl}"
+            );
             assert!(
                 partial > side,
                 "{name}: the map must hold cloud edges ({partial})"
