@@ -75,7 +75,11 @@ pub struct VolumetricClouds {
     /// How fast steps grow with distance from the camera, 1/m: a step at distance `d` is
     /// `1 + step_growth · d` times longer than one at the camera. 0 keeps steps even.
     pub step_growth: f32,
-    /// The march stops once the view transmittance falls below this (0–1). Default 0.01.
+    /// The march stops once the view transmittance falls below this (0–1). With
+    /// [`VolumetricClouds::multiple_scattering`] that is the δ-scaled medium's transmittance
+    /// `e^(−(1 − f) τ)` (`f` the phase's forward fraction), which carries a backlit cloud's glow
+    /// and the sky behind a thin cloud: the true medium's `e^(−τ)` reaches the cut-off several
+    /// times sooner and drops them. Default 0.01 (`ULTRA` 0.002).
     pub transmittance_cutoff: f32,
     /// Light scattered more than once: the δ-Eddington diffuse field of the sun and the sky in
     /// each cloud (validated against DISORT, `validation/README.md`). Off, the clouds get

@@ -184,6 +184,19 @@ impl Ray<'_> {
         (-(1.0 - self.phase.forward_fraction) * self.optical_depth).exp()
     }
 
+    /// The transmittance the early exit compares with the cut-off: with multiple scattering
+    /// the scaled medium's, which lets the light scattered in the phase's forward peak through
+    /// far deeper into a cloud than the true medium lets the direct light (`e^(−(1 − f) τ)`
+    /// against `e^(−τ)`: a backlit cloud's glow and the sky behind it still show at `T` = 1 %).
+    /// WGSL twin: `cutoff_transmittance`.
+    fn cutoff_transmittance(&self) -> f64 {
+        if self.settings.multiple_scattering {
+            self.scaled_transmittance()
+        } else {
+            self.transmittance
+        }
+    }
+
     /// Adds the light of what lies behind the medium scattered in the phase's forward peak,
     /// once the ray is marched: the scaled medium lets `e^(−(1 − f) τ)` of it through, the true
     /// one (which the compositor applies to the scene) `e^(−τ)`, so the ray gains `B (e^(−(1 −
@@ -351,7 +364,7 @@ impl Ray<'_> {
             if is_positive(medium.extinction) {
                 self.integrate(t, to - from, &medium);
                 cloudy += 1;
-                if self.transmittance <= self.settings.transmittance_cutoff {
+                if self.cutoff_transmittance() <= self.settings.transmittance_cutoff {
                     break;
                 }
             }
@@ -530,7 +543,7 @@ impl Ray<'_> {
             clear_from = (x < CLEAR_STEP_OPTICAL_DEPTH).then_some(ta + self.jitter * (tb - ta));
             if x > 0.0 {
                 empty = 0;
-                if self.transmittance <= cutoff {
+                if self.cutoff_transmittance() <= cutoff {
                     // Stopping early drops the light the rest of the medium would scatter
                     // toward the camera, up to `T · S / σt` (1 % of a uniform medium's radiance
                     // at a cut-off of 0.01: half the contrast of a target at the visibility

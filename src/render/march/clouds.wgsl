@@ -110,6 +110,15 @@ fn scaled_transmittance(ray: ptr<function, MarchRay>) -> f32 {
     return exp(-(1.0 - clouds.forward_fraction) * (*ray).optical_depth);
 }
 
+// The transmittance the early exit compares with the cut-off: the scaled medium's with multiple
+// scattering. Rust: `Ray::cutoff_transmittance`.
+fn cutoff_transmittance(ray: ptr<function, MarchRay>) -> f32 {
+    if clouds.multiple_scattering != 0u {
+        return scaled_transmittance(ray);
+    }
+    return (*ray).transmittance;
+}
+
 // The light of what lies behind the medium scattered in the phase's forward peak, B (T* - T): B
 // the scaled medium's mean glow along the ray where the ray ends on the ground or a scene object
 // inside it, the sky above or the ground below otherwise. Rust: `Ray::add_background` (its docs say why).
@@ -243,7 +252,7 @@ fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32, clear_from: f32) -
         if part.extinction > 0.0 {
             integrate_step(ray, ts, to - begin, part);
             cloudy += 1u;
-            if (*ray).transmittance <= clouds.transmittance_cutoff {
+            if cutoff_transmittance(ray) <= clouds.transmittance_cutoff {
                 break;
             }
         }
@@ -377,7 +386,7 @@ fn march_interval(ray: ptr<function, MarchRay>, start: f32, end: f32, total: f32
         clear_from = select(NO_HIT, ta + (*ray).jitter * (tb - ta), x < CLEAR_STEP_OPTICAL_DEPTH);
         if x > 0.0 {
             empty = 0u;
-            if (*ray).transmittance <= clouds.transmittance_cutoff {
+            if cutoff_transmittance(ray) <= clouds.transmittance_cutoff {
                 // The light the rest of the medium would add, as if it went on like the last
                 // step; nothing behind shows through (Rust: `Ray::march_interval`).
                 (*ray).radiance += (*ray).transmittance * (*ray).tail + scaled_transmittance(ray) * (*ray).scaled_tail;
