@@ -584,6 +584,13 @@ fn fog_visibility_gives_two_percent_contrast_at_the_visibility_distance() {
     assert!((fog.density - 3.912 / visibility).abs() < 1e-6 && fog.coverage == 1.0);
 
     let size = UVec2::new(64, 16);
+    // The view looks up by half a row, so the middle row (the one below the centre) looks level:
+    // through uniform fog at 2 m, which it leaves past the horizon, 40 km away. The fog behind
+    // the target is then the fog's horizon, as the definition has it. Looking level, that row
+    // meets the ground 917 m away; looking up by more, the fog behind the target is higher in
+    // the layer, lit more by the sky and the sun than the fog in front of it.
+    let fov = 4f32.to_radians();
+    let pitch = 0.5 * fov / size.y as f32;
     let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
     // An unlit black box whose near face is `visibility` metres ahead, in the left half.
     let target = {
@@ -602,20 +609,25 @@ fn fog_visibility_gives_two_percent_contrast_at_the_visibility_distance() {
             .spawn((
                 Mesh3d(mesh),
                 MeshMaterial3d(material),
-                // 0.7° to 7.8° left of the view's centre; the view is 16° wide.
-                Transform::from_xyz(-60.0, 2.0, -(visibility + 10.0)),
+                // 0.7° to 7.8° left of the view's centre; the view is 16° wide. Its centre
+                // on the view's centre line, `pitch` above the horizontal.
+                Transform::from_xyz(
+                    -60.0,
+                    2.0 + (visibility + 10.0) * pitch.tan(),
+                    -(visibility + 10.0),
+                ),
             ))
             .id()
     };
     rig.set_scene(&Scene {
         name: "fog",
-        camera: Transform::from_xyz(0.0, 2.0, 0.0).looking_to(Vec3::NEG_Z, Vec3::Y),
+        camera: Transform::from_xyz(0.0, 2.0, 0.0)
+            .looking_to(Vec3::new(0.0, pitch.tan(), -1.0), Vec3::Y),
         sun_deg: (30.0, 150.0),
         layers: vec![fog],
         // The default preset: the contrast must hold with the early exit the game uses. At full
-        // resolution: without jitter the half-resolution march has no temporal upsampling, and
-        // the eye-level row's 2 × 2 block holds ground 917 m and 305 m away (measured at half
-        // resolution: the open fog's row upsampled to 1.17 against 1.31 above it).
+        // resolution: without jitter the quarter-resolution march has no temporal upsampling,
+        // and one of its blocks would mix rows a quarter of a degree apart.
         settings: VolumetricClouds {
             jitter: false,
             resolution_scale: 1.0,
@@ -626,7 +638,7 @@ fn fog_visibility_gives_two_percent_contrast_at_the_visibility_distance() {
         .world()
         .entity_mut(rig.camera)
         .insert(Projection::Perspective(PerspectiveProjection {
-            fov: 4f32.to_radians(),
+            fov,
             ..default()
         }));
     let (radiance, _) = rig.render(3);

@@ -505,3 +505,66 @@ fn the_early_exit_keeps_the_light_of_the_scaled_medium() {
         }
     }
 }
+
+#[test]
+fn a_black_object_at_the_visibility_distance_keeps_koschmieders_contrast() {
+    // Uniform fog from the ground up, visibility V = 800 m, seen level from 2 m: a black object
+    // at distance d ends the ray with `L_inf (1 − e^(−σ d))` in front of it, the fog horizon
+    // beside it is `L_inf`, so their contrast is `e^(−σ d)` (Koschmieder; 2 % at d = V). It must
+    // hold for single and multiple scattering (the δ-scaled medium's forward light behind the
+    // object, `add_background`) and with the early exit on the open ray (its tail).
+    let sigma = 3.912 / 800.0;
+    let distance = 810.0;
+    let mut fog = MarchLayer {
+        base_m: 0.0,
+        top_m: 150.0,
+        coverage: 1.0,
+        extinction: sigma,
+        shape_strength: 0.0,
+        ..MarchLayer::default()
+    };
+    fog.set_profile(&[[0.0, 1.0], [1.0, 1.0]]);
+    let (elevation, azimuth) = (30f64.to_radians(), 50f64.to_radians());
+    let expected = (-sigma * distance).exp();
+    for multiple_scattering in [false, true] {
+        for transmittance_cutoff in [0.0, 0.01] {
+            let settings = MarchSettings {
+                primary_steps: 192,
+                sun_direction: [
+                    elevation.cos() * azimuth.sin(),
+                    elevation.sin(),
+                    -elevation.cos() * azimuth.cos(),
+                ],
+                multiple_scattering,
+                transmittance_cutoff,
+                jitter: false,
+                camera_altitude_m: 2.0,
+                ..MarchSettings::default()
+            };
+            let march = |t_max: f64| {
+                march_clouds(
+                    textures(),
+                    &settings,
+                    std::slice::from_ref(&fog),
+                    settings.camera_altitude_m,
+                    UP,
+                    [0.0, 0.0, -1.0],
+                    t_max,
+                    0.5,
+                    None,
+                )
+            };
+            let (target, open) = (march(distance), march(f64::INFINITY));
+            assert_sane(&target, "target");
+            assert_sane(&open, "open fog");
+            for c in 0..3 {
+                let contrast = (open.radiance[c] - target.radiance[c]) / open.radiance[c];
+                assert!(
+                    (contrast - expected).abs() < 0.001,
+                    "multiple scattering {multiple_scattering}, cut-off {transmittance_cutoff}, \
+                     channel {c}: contrast {contrast:.4}, expected {expected:.4}"
+                );
+            }
+        }
+    }
+}
