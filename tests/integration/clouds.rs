@@ -627,7 +627,7 @@ fn fog_visibility_gives_two_percent_contrast_at_the_visibility_distance() {
         layers: vec![fog],
         // The default preset: the contrast must hold with the early exit the game uses. At full
         // resolution: without jitter the quarter-resolution march has no temporal upsampling,
-        // and one of its blocks would mix rows a quarter of a degree apart.
+        // and one of its 4 × 4 blocks would stand for four rows, a degree of the view.
         settings: VolumetricClouds {
             jitter: false,
             resolution_scale: 1.0,
