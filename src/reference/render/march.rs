@@ -413,6 +413,10 @@ impl Ray<'_> {
             altitude,
         );
         let mut sun_optical_depth_at = None;
+        let light_steps = light_steps_at(
+            settings.light_steps,
+            self.transmittance <= settings.transmittance_cutoff,
+        );
         if self.sun_on {
             let light_march = |max_distance: f64, steps: u32| {
                 sun_optical_depth(
@@ -440,16 +444,14 @@ impl Ray<'_> {
                     let end_altitude =
                         altitude_along_ray(altitude, mu_sun, near, settings.planet_radius_m);
                     let far = map.sun_optical_depth(end, end_altitude)?;
-                    let near_depth =
-                        light_march(near, settings.light_steps.min(SHADOW_MAP_NEAR_STEPS));
+                    let near_depth = light_march(near, light_steps.min(SHADOW_MAP_NEAR_STEPS));
                     Some(if near_depth < 0.0 {
                         near_depth
                     } else {
                         near_depth + far
                     })
                 });
-            let optical_depth =
-                from_map.unwrap_or_else(|| light_march(f64::INFINITY, settings.light_steps));
+            let optical_depth = from_map.unwrap_or_else(|| light_march(f64::INFINITY, light_steps));
             if optical_depth >= 0.0 {
                 sun_optical_depth_at = Some(optical_depth);
             }
@@ -661,3 +663,22 @@ pub fn march_clouds(
         distance_m: ray.distance(),
     }
 }
+
+/// The light steps of a sample: all of `light_steps`, or a quarter of them (at least 4) once
+/// the true medium's transmittance is past the cut-off (`past_cutoff`). There the march goes on
+/// only for the δ-scaled light of multiple scattering (see [`Ray::cutoff_transmittance`]), and
+/// the light march is most of a sample's cost.
+pub(crate) fn light_steps_at(light_steps: u32, past_cutoff: bool) -> u32 {
+    if past_cutoff {
+        (light_steps / PAST_CUTOFF_LIGHT_STEP_DIVISOR)
+            .clamp(light_steps.min(PAST_CUTOFF_MIN_LIGHT_STEPS), light_steps)
+    } else {
+        light_steps
+    }
+}
+
+/// How many times fewer light steps a sample past the cut-off takes (see [`light_steps_at`]).
+const PAST_CUTOFF_LIGHT_STEP_DIVISOR: u32 = 4;
+
+/// The fewest light steps a sample past the cut-off takes, unless the preset takes fewer.
+const PAST_CUTOFF_MIN_LIGHT_STEPS: u32 = 4;

@@ -281,6 +281,12 @@ fn integrate_step(ray: ptr<function, MarchRay>, t: f32, dt: f32, medium: Medium)
     let position = (*ray).direction * t;
     let mu_sun = point_mu_sun((*ray).camera_altitude_m, (*ray).up, position, altitude);
     var optical_depth = -1.0;
+    // Past the true medium's cut-off only the scaled light is left: a quarter of the light
+    // steps, at least 4 (Rust: `light_steps_at`).
+    var light_steps = clouds.light_steps;
+    if (*ray).transmittance <= clouds.transmittance_cutoff {
+        light_steps = clamp(light_steps / 4u, min(light_steps, 4u), light_steps);
+    }
     if (*ray).sun_on {
         // A far sample marches only the first texels toward the sun and reads the rest of the
         // way from the shadow map, where the map covers it (Rust: `Ray::integrate`).
@@ -289,12 +295,12 @@ fn integrate_step(ray: ptr<function, MarchRay>, t: f32, dt: f32, medium: Medium)
         let uv = shadow_map_uv(end);
         if t >= clouds.sun_from_shadow_map_m && shadow_map_covers(uv) {
             let end_altitude = altitude_along_ray(altitude, mu_sun, near, clouds.planet_radius_m);
-            optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, near, min(clouds.light_steps, SHADOW_MAP_NEAR_STEPS), LIGHT_SAMPLE_OFFSET);
+            optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, near, min(light_steps, SHADOW_MAP_NEAR_STEPS), LIGHT_SAMPLE_OFFSET);
             if optical_depth >= 0.0 {
                 optical_depth += map_sun_optical_depth(uv, end_altitude);
             }
         } else {
-            optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, FAR_AWAY, clouds.light_steps, LIGHT_SAMPLE_OFFSET);
+            optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, FAR_AWAY, light_steps, LIGHT_SAMPLE_OFFSET);
         }
     }
     let source = sample_source(medium.scattering, medium.column_above, medium.column_below, medium.ambient, optical_depth, mu_sun, (*ray).cos_sun, (*ray).mu);

@@ -568,3 +568,18 @@ fn a_black_object_at_the_visibility_distance_keeps_koschmieders_contrast() {
         }
     }
 }
+
+#[test]
+fn samples_past_the_cutoff_march_a_quarter_of_the_light_steps() {
+    use super::march::light_steps_at;
+    // Before the cut-off every sample takes the preset's light steps.
+    for steps in [1, 4, 10, 14, 24] {
+        assert_eq!(light_steps_at(steps, false), steps);
+    }
+    // Past it a quarter, never fewer than 4 nor more than the preset's.
+    assert_eq!(light_steps_at(24, true), 6);
+    assert_eq!(light_steps_at(14, true), 4);
+    assert_eq!(light_steps_at(10, true), 4);
+    assert_eq!(light_steps_at(3, true), 3);
+    assert_eq!(light_steps_at(1, true), 1);
+}
