@@ -90,6 +90,14 @@ fn rust_constants() -> Vec<(&'static str, Vec<f64>)> {
         ("MAX_STEP_OPTICAL_DEPTH", scalar(MAX_STEP_OPTICAL_DEPTH)),
         ("MAX_SUBSTEPS", scalar(MAX_SUBSTEPS.into())),
         ("MAX_PARTS", scalar(MAX_PARTS.into())),
+        (
+            "PAST_CUTOFF_LIGHT_STEP_DIVISOR",
+            scalar(PAST_CUTOFF_LIGHT_STEP_DIVISOR.into()),
+        ),
+        (
+            "PAST_CUTOFF_MIN_LIGHT_STEPS",
+            scalar(PAST_CUTOFF_MIN_LIGHT_STEPS.into()),
+        ),
         ("CLEAR_STEP_OPTICAL_DEPTH", scalar(CLEAR_STEP_OPTICAL_DEPTH)),
         ("EDGE_SEARCH_STEPS", scalar(EDGE_SEARCH_STEPS.into())),
         ("PRECIPITATION_ABSORPTION", scalar(PRECIPITATION_ABSORPTION)),

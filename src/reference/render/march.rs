@@ -38,6 +38,12 @@ pub const MAX_SUBSTEPS: u32 = 8;
 /// Most parts, cloudy or empty, a dense primary step is marched in.
 pub const MAX_PARTS: u32 = 32;
 
+/// How many times fewer light steps a sample past the cut-off takes (see [`light_steps_at`]).
+pub const PAST_CUTOFF_LIGHT_STEP_DIVISOR: u32 = 4;
+
+/// The fewest light steps a sample past the cut-off takes, unless the preset takes fewer.
+pub const PAST_CUTOFF_MIN_LIGHT_STEPS: u32 = 4;
+
 /// A primary step thinner than this (optical thickness at its sample) counts as clear for the
 /// edge search of the dense step after it.
 pub const CLEAR_STEP_OPTICAL_DEPTH: f64 = 0.1;
@@ -671,14 +677,8 @@ pub fn march_clouds(
 pub(crate) fn light_steps_at(light_steps: u32, past_cutoff: bool) -> u32 {
     if past_cutoff {
         (light_steps / PAST_CUTOFF_LIGHT_STEP_DIVISOR)
-            .clamp(light_steps.min(PAST_CUTOFF_MIN_LIGHT_STEPS), light_steps)
+            .max(light_steps.min(PAST_CUTOFF_MIN_LIGHT_STEPS))
     } else {
         light_steps
     }
 }
-
-/// How many times fewer light steps a sample past the cut-off takes (see [`light_steps_at`]).
-const PAST_CUTOFF_LIGHT_STEP_DIVISOR: u32 = 4;
-
-/// The fewest light steps a sample past the cut-off takes, unless the preset takes fewer.
-const PAST_CUTOFF_MIN_LIGHT_STEPS: u32 = 4;

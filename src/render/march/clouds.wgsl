@@ -58,6 +58,10 @@ const EMPTY_STEPS_TO_CHEAP: u32 = 4u;
 const MAX_STEP_OPTICAL_DEPTH: f32 = 1.0;
 const MAX_SUBSTEPS: u32 = 8u;
 const MAX_PARTS: u32 = 32u;
+// Light steps past the cut-off: a quarter, at least 4 (Rust: `PAST_CUTOFF_LIGHT_STEP_DIVISOR`,
+// `PAST_CUTOFF_MIN_LIGHT_STEPS`).
+const PAST_CUTOFF_LIGHT_STEP_DIVISOR: u32 = 4u;
+const PAST_CUTOFF_MIN_LIGHT_STEPS: u32 = 4u;
 const CLEAR_STEP_OPTICAL_DEPTH: f32 = 0.1;
 const EDGE_SEARCH_STEPS: u32 = 6u;
 
@@ -281,11 +285,11 @@ fn integrate_step(ray: ptr<function, MarchRay>, t: f32, dt: f32, medium: Medium)
     let position = (*ray).direction * t;
     let mu_sun = point_mu_sun((*ray).camera_altitude_m, (*ray).up, position, altitude);
     var optical_depth = -1.0;
-    // Past the true medium's cut-off only the scaled light is left: a quarter of the light
-    // steps, at least 4 (Rust: `light_steps_at`).
+    // Past the true medium's cut-off only the scaled light is left: fewer light steps
+    // (Rust: `light_steps_at`).
     var light_steps = clouds.light_steps;
     if (*ray).transmittance <= clouds.transmittance_cutoff {
-        light_steps = clamp(light_steps / 4u, min(light_steps, 4u), light_steps);
+        light_steps = max(light_steps / PAST_CUTOFF_LIGHT_STEP_DIVISOR, min(light_steps, PAST_CUTOFF_MIN_LIGHT_STEPS));
     }
     if (*ray).sun_on {
         // A far sample marches only the first texels toward the sun and reads the rest of the
