@@ -276,6 +276,15 @@ fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32, clear_from: f32) -
     return x;
 }
 
+// The light steps of a sample: a quarter of them, at least PAST_CUTOFF_MIN_LIGHT_STEPS (or all
+// when there are fewer), past the true medium's cut-off. Rust: `light_steps_at`.
+fn light_steps_at(light_steps: u32, past_cutoff: bool) -> u32 {
+    if past_cutoff {
+        return max(light_steps / PAST_CUTOFF_LIGHT_STEP_DIVISOR, min(light_steps, PAST_CUTOFF_MIN_LIGHT_STEPS));
+    }
+    return light_steps;
+}
+
 // Integrates the medium sampled at t over a step dt long: the light toward the sun, the source
 // and the analytic integral across the step. Rust: `Ray::integrate`.
 fn integrate_step(ray: ptr<function, MarchRay>, t: f32, dt: f32, medium: Medium) {
@@ -285,12 +294,8 @@ fn integrate_step(ray: ptr<function, MarchRay>, t: f32, dt: f32, medium: Medium)
     let position = (*ray).direction * t;
     let mu_sun = point_mu_sun((*ray).camera_altitude_m, (*ray).up, position, altitude);
     var optical_depth = -1.0;
-    // Past the true medium's cut-off only the scaled light is left: fewer light steps
-    // (Rust: `light_steps_at`).
-    var light_steps = clouds.light_steps;
-    if (*ray).transmittance <= clouds.transmittance_cutoff {
-        light_steps = max(light_steps / PAST_CUTOFF_LIGHT_STEP_DIVISOR, min(light_steps, PAST_CUTOFF_MIN_LIGHT_STEPS));
-    }
+    // Past the true medium's cut-off only the scaled light is left: fewer light steps.
+    let light_steps = light_steps_at(clouds.light_steps, (*ray).transmittance <= clouds.transmittance_cutoff);
     if (*ray).sun_on {
         // A far sample marches only the first texels toward the sun and reads the rest of the
         // way from the shadow map, where the map covers it (Rust: `Ray::integrate`).
