@@ -377,6 +377,11 @@ impl Ray<'_> {
             from = to;
         }
         if let Some(one) = one {
+            // Parts that found no cloud leave the tail to the one-sample step.
+            if cloudy == 0 {
+                self.tail = one.tail;
+                self.scaled_tail = one.scaled_tail;
+            }
             self.mix_with(&one, 1.0 - weight);
         }
         x

@@ -12,8 +12,8 @@
     layer_density, profile_column, scattering_albedo, total_extinction,
 }
 #import bevy_cloudscape::cloud_light::{
-    LIGHT_SAMPLE_OFFSET, SHADOW_MAP_NEAR_STEPS, SHADOW_MAP_NEAR_TEXELS, mean_step_transmittance,
-    point_mu_sun, sample_source, sun_optical_depth,
+    LIGHT_SAMPLE_OFFSET, SHADOW_MAP_NEAR_STEPS, SHADOW_MAP_NEAR_TEXELS, SampleSource,
+    mean_step_transmittance, point_mu_sun, sample_source, sun_optical_depth,
 }
 #import bevy_cloudscape::cloud_shadow::{map_sun_optical_depth, shadow_map_covers, shadow_map_uv}
 
@@ -65,6 +65,41 @@ const PAST_CUTOFF_MIN_LIGHT_STEPS: u32 = 4u;
 const CLEAR_STEP_OPTICAL_DEPTH: f32 = 0.1;
 const EDGE_SEARCH_STEPS: u32 = 6u;
 
+// GPU only: the light march is deferred. A sample's source needs its light march toward the
+// sun, but nothing else the view march does depends on it (the source enters the radiance
+// linearly), so `integrate_step` queues the sample with its weights in the radiance and
+// `light_queued_samples` lights the queue in one loop: after the view march, or before a step
+// when the queue could overflow. Pixels then run their light marches together instead of each
+// at its own cloudy steps, which is what costs on SIMD hardware. The CPU twin lights each sample
+// at once; the sums are the same up to f32 rounding.
+// Size of the queue: a multiple of the most samples a step can queue (the one-sample step and
+// MAX_SUBSTEPS parts).
+const LIGHT_QUEUE_SIZE: u32 = LIGHT_QUEUE_STEPS * (MAX_SUBSTEPS + 1u);
+const LIGHT_QUEUE_STEPS: u32 = 6u;
+// No queued sample (a tail that names none).
+const NO_SAMPLE: u32 = 0xffffffffu;
+
+// A sample waiting for its light march.
+struct QueuedSample {
+    // Medium.ambient.
+    ambient: vec3<f32>,
+    // Distance along the view ray, m.
+    t: f32,
+    scattering: f32,
+    column_above: f32,
+    column_below: f32,
+    extinction: f32,
+    // Coefficients of the source's direct and scaled parts in the radiance (the scaled part's
+    // also in `scaled_radiance`).
+    weight: f32,
+    scaled_weight: f32,
+    // Light-march steps (`light_steps_at`).
+    light_steps: u32,
+}
+
+var<private> light_queue: array<QueuedSample, LIGHT_QUEUE_SIZE>;
+var<private> queued: u32;
+
 // One ray's constants and state. Rust: `Ray`.
 struct MarchRay {
     camera_altitude_m: f32,
@@ -81,12 +116,13 @@ struct MarchRay {
     // exp(-optical_depth).
     transmittance: f32,
     radiance: vec3<f32>,
-    // The last cloudy step's source over its extinction: what a medium like it would add beyond
-    // an early stop (Rust: `Ray::tail`).
-    tail: vec3<f32>,
-    // The same for the source seen through the scaled medium, over the scaled extinction
-    // (Rust: `Ray::scaled_tail`).
-    scaled_tail: vec3<f32>,
+    // The last cloudy step's source over its extinction, what a medium like it would add beyond
+    // an early stop (Rust: `Ray::tail` and `Ray::scaled_tail`): here the queued samples it is
+    // made of, each with its share (a dense step mixes two); NO_SAMPLE for none.
+    tail_a: u32,
+    tail_b: u32,
+    tail_share_a: f32,
+    tail_share_b: f32,
     // The part of `radiance` seen through the scaled medium (Rust: `Ray::scaled_radiance`).
     scaled_radiance: vec3<f32>,
     // Sum of (opacity a step adds) * (its distance), and sum of opacity (Rust: `Ray::add_opacity`).
@@ -216,16 +252,21 @@ fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32, clear_from: f32) -
     if !(medium.extinction > 0.0) {
         return 0.0;
     }
+    if queued + MAX_SUBSTEPS + 1u > LIGHT_QUEUE_SIZE {
+        light_queued_samples(ray);
+    }
     let x = medium.extinction * dt;
     let weight = dense_step_weight(x);
     if !(weight > 0.0) {
-        integrate_step(ray, t, dt, medium);
+        integrate_step(ray, t, dt, medium, 1.0);
         return x;
     }
-    // The one-sample step, mixed in below the full weight.
+    // The one-sample step, mixed in below the full weight: its sample is queued with its share
+    // of the radiance, the parts' with theirs (`weight`), and the rest is mixed below.
+    let amount = 1.0 - weight;
     var one = *ray;
     if weight < 1.0 {
-        integrate_step(&one, t, dt, medium);
+        integrate_step(&one, t, dt, medium, amount);
     }
     var begin = ta;
     if clear_from >= 0.0 && clear_from < t {
@@ -254,7 +295,7 @@ fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32, clear_from: f32) -
         let ts = begin + (*ray).jitter * (to - begin);
         let part = ray_medium(ray, ts);
         if part.extinction > 0.0 {
-            integrate_step(ray, ts, to - begin, part);
+            integrate_step(ray, ts, to - begin, part, weight);
             cloudy += 1u;
             if cutoff_transmittance(ray) <= clouds.transmittance_cutoff {
                 break;
@@ -263,15 +304,21 @@ fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32, clear_from: f32) -
         begin = to;
     }
     if weight < 1.0 {
-        let amount = 1.0 - weight;
         (*ray).optical_depth = mix((*ray).optical_depth, one.optical_depth, amount);
         (*ray).transmittance = exp(-(*ray).optical_depth);
-        (*ray).radiance = mix((*ray).radiance, one.radiance, amount);
-        (*ray).tail = mix((*ray).tail, one.tail, amount);
-        (*ray).scaled_tail = mix((*ray).scaled_tail, one.scaled_tail, amount);
-        (*ray).scaled_radiance = mix((*ray).scaled_radiance, one.scaled_radiance, amount);
         (*ray).opacity_distance = mix((*ray).opacity_distance, one.opacity_distance, amount);
         (*ray).opacity = mix((*ray).opacity, one.opacity, amount);
+        // The tail: the last cloudy part's and the one-sample step's, mixed; the one-sample
+        // step's alone when no part found cloud (Rust: `Ray::step`).
+        if cloudy == 0u {
+            (*ray).tail_a = one.tail_a;
+            (*ray).tail_share_a = 1.0;
+            (*ray).tail_b = NO_SAMPLE;
+        } else {
+            (*ray).tail_share_a = weight;
+            (*ray).tail_b = one.tail_a;
+            (*ray).tail_share_b = amount;
+        }
     }
     return x;
 }
@@ -285,17 +332,72 @@ fn light_steps_at(light_steps: u32, past_cutoff: bool) -> u32 {
     return light_steps;
 }
 
-// Integrates the medium sampled at t over a step dt long: the light toward the sun, the source
-// and the analytic integral across the step. Rust: `Ray::integrate`.
-fn integrate_step(ray: ptr<function, MarchRay>, t: f32, dt: f32, medium: Medium) {
-    let altitude = ray_altitude(ray, t);
-    let footprint = t * clouds.pixel_angle_rad;
+// Integrates the medium sampled at t over a step dt long: the analytic integral across the
+// step, and the sample queued for its light march with its weights times `share` (its step's
+// share of a dense step's mix, 1 otherwise). Rust: `Ray::integrate`.
+fn integrate_step(ray: ptr<function, MarchRay>, t: f32, dt: f32, medium: Medium, share: f32) {
     let extinction = medium.extinction;
-    let position = (*ray).direction * t;
-    let mu_sun = point_mu_sun((*ray).camera_altitude_m, (*ray).up, position, altitude);
-    var optical_depth = -1.0;
+    // Hillaire 2016: the integral of T S over the step is T S dt (1 - exp(-x)) / x, once
+    // through the true medium and once through the scaled one.
+    let scaled = 1.0 - clouds.forward_fraction;
+    let x = extinction * dt;
+    let weight = (*ray).transmittance * dt * mean_step_transmittance(x);
+    let scaled_weight = exp(-scaled * (*ray).optical_depth) * dt * mean_step_transmittance(scaled * x);
     // Past the true medium's cut-off only the scaled light is left: fewer light steps.
     let light_steps = light_steps_at(clouds.light_steps, (*ray).transmittance <= clouds.transmittance_cutoff);
+    light_queue[queued] = QueuedSample(medium.ambient, t, medium.scattering, medium.column_above, medium.column_below, extinction, share * weight, share * scaled_weight, light_steps);
+    (*ray).tail_a = queued;
+    (*ray).tail_share_a = 1.0;
+    (*ray).tail_b = NO_SAMPLE;
+    queued += 1u;
+    let before = (*ray).transmittance;
+    (*ray).optical_depth += x;
+    (*ray).transmittance = exp(-(*ray).optical_depth);
+    add_opacity(ray, before - (*ray).transmittance, t);
+}
+
+// Adds the light beyond an early stop, transmittance * tail + scaled transmittance * scaled
+// tail (Rust: `Ray::march_interval`), to the weights of the queued samples the tail is made of.
+// The scaled part also lands in `scaled_radiance`, which nothing reads once the march stops.
+fn add_tail(ray: ptr<function, MarchRay>) {
+    let direct = (*ray).transmittance;
+    let scaled = scaled_transmittance(ray) / (1.0 - clouds.forward_fraction);
+    add_tail_share((*ray).tail_a, (*ray).tail_share_a, direct, scaled);
+    add_tail_share((*ray).tail_b, (*ray).tail_share_b, direct, scaled);
+}
+
+// `add_tail` for one queued sample k (NO_SAMPLE: none) with its share of the tail.
+fn add_tail_share(k: u32, share: f32, direct: f32, scaled: f32) {
+    if k < queued {
+        let per_extinction = share / light_queue[k].extinction;
+        light_queue[k].weight += per_extinction * direct;
+        light_queue[k].scaled_weight += per_extinction * scaled;
+    }
+}
+
+// Runs the queued samples' light marches, adds their light to the radiance and empties the queue.
+fn light_queued_samples(ray: ptr<function, MarchRay>) {
+    for (var i = 0u; i < queued; i++) {
+        let sample = light_queue[i];
+        let source = light_sample(ray, sample);
+        (*ray).radiance += sample.weight * source.direct + sample.scaled_weight * source.scaled;
+        (*ray).scaled_radiance += sample.scaled_weight * source.scaled;
+    }
+    queued = 0u;
+    (*ray).tail_a = NO_SAMPLE;
+    (*ray).tail_b = NO_SAMPLE;
+}
+
+// A queued sample's source: its light march toward the sun, then the source (Rust: the light
+// half of `Ray::integrate`).
+fn light_sample(ray: ptr<function, MarchRay>, sample: QueuedSample) -> SampleSource {
+    let t = sample.t;
+    let altitude = ray_altitude(ray, t);
+    let footprint = t * clouds.pixel_angle_rad;
+    let position = (*ray).direction * t;
+    let mu_sun = point_mu_sun((*ray).camera_altitude_m, (*ray).up, position, altitude);
+    let light_steps = sample.light_steps;
+    var optical_depth = -1.0;
     if (*ray).sun_on {
         // A far sample marches only the first texels toward the sun and reads the rest of the
         // way from the shadow map, where the map covers it (Rust: `Ray::integrate`).
@@ -312,21 +414,7 @@ fn integrate_step(ray: ptr<function, MarchRay>, t: f32, dt: f32, medium: Medium)
             optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, FAR_AWAY, light_steps, LIGHT_SAMPLE_OFFSET);
         }
     }
-    let source = sample_source(medium.scattering, medium.column_above, medium.column_below, medium.ambient, optical_depth, mu_sun, (*ray).cos_sun, (*ray).mu);
-    // Hillaire 2016: the integral of T S over the step is T S dt (1 - exp(-x)) / x, once
-    // through the true medium and once through the scaled one.
-    let scaled = 1.0 - clouds.forward_fraction;
-    let x = extinction * dt;
-    let weight = (*ray).transmittance * dt * mean_step_transmittance(x);
-    let scaled_weight = exp(-scaled * (*ray).optical_depth) * dt * mean_step_transmittance(scaled * x);
-    let before = (*ray).transmittance;
-    (*ray).optical_depth += x;
-    (*ray).transmittance = exp(-(*ray).optical_depth);
-    (*ray).radiance += weight * source.direct + scaled_weight * source.scaled;
-    (*ray).scaled_radiance += scaled_weight * source.scaled;
-    (*ray).tail = source.direct / extinction;
-    (*ray).scaled_tail = source.scaled / (scaled * extinction);
-    add_opacity(ray, before - (*ray).transmittance, t);
+    return sample_source(sample.scattering, sample.column_above, sample.column_below, sample.ambient, optical_depth, mu_sun, (*ray).cos_sun, (*ray).mu);
 }
 
 // How many of a ray's steps the interval [start_m, end_m] calls for: its length over the step's
@@ -404,7 +492,7 @@ fn march_interval(ray: ptr<function, MarchRay>, start: f32, end: f32, total: f32
             if cutoff_transmittance(ray) <= clouds.transmittance_cutoff {
                 // The light the rest of the medium would add, as if it went on like the last
                 // step; nothing behind shows through (Rust: `Ray::march_interval`).
-                (*ray).radiance += (*ray).transmittance * (*ray).tail + scaled_transmittance(ray) * (*ray).scaled_tail;
+                add_tail(ray);
                 add_opacity(ray, (*ray).transmittance, tb);
                 (*ray).transmittance = 0.0;
                 return false;
@@ -449,12 +537,15 @@ fn march_clouds(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter:
         0.0,
         1.0,
         vec3<f32>(0.0),
-        vec3<f32>(0.0),
-        vec3<f32>(0.0),
+        NO_SAMPLE,
+        NO_SAMPLE,
+        0.0,
+        0.0,
         vec3<f32>(0.0),
         0.0,
         0.0,
     );
+    queued = 0u;
     // The primary steps are a budget for the whole ray, shared by its intervals.
     let intervals = 2u * cloud_layer_count() + 1u;
     var total = 0.0;
@@ -475,6 +566,7 @@ fn march_clouds(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter:
         }
         t = interval.y;
     }
+    light_queued_samples(&ray);
     add_background(&ray, t_end);
     var distance = FAR_AWAY;
     if ray.opacity > 0.0 {
