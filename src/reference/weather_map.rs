@@ -7,9 +7,10 @@
 //! the coverage remap. The weather-map pass (`src/render/weather_map/`) computes them once per
 //! frame for a square of `size²` texels around the camera, one slice per layer, and the march
 //! reads the four taps from the map instead of recomputing them at every sample. Each texel also
-//! carries the weather noise's two curl channels, which the fine shape warp filters over the
-//! same four texels ([`shape_warp`]), so the march reads those from the map too. Outside the
-//! square the march computes the taps itself, so the map changes the cost and not the image.
+//! carries the shape warp there ([`texel_shape_warp`]: the fine and the broad curl), which
+//! [`shape_warp`] filters over the same four texels, so a sample inside the map reads four
+//! texels instead of eight or more. Outside the square the march computes the taps itself, so
+//! the map changes the cost and not the image.
 //!
 //! The map's texels are the weather noise's texels, not a resampling of them: texel `(i, j)` of
 //! the map is weather texel `origin + (i, j)`. The origin is chosen from the layer's wrapped
@@ -21,7 +22,7 @@
 //! [`weather_coverage`]: super::render::weather_coverage
 //! [`shape_warp`]: super::render::shape_warp
 
-use super::render::{MarchLayer, NoiseTexture2d, unorm8, weather_texel_coverage};
+use super::render::{MarchLayer, NoiseTexture2d, texel_shape_warp, weather_texel_coverage};
 
 /// Default side of each layer's weather map, texels (a slice of `size²` `Rgba32Float` values,
 /// 4 MiB at 512). At the default cumulus weather period (12 km over 256 texels) it covers 24 km around
@@ -55,8 +56,8 @@ pub fn weather_map_holds(origin: [i64; 2], size: u32, texel: [i64; 2]) -> bool {
 }
 
 /// One layer's weather map: `size²` texels, x fastest, texel `(i, j)` holding weather texel
-/// `origin + (i, j)`: its [`weather_texel_coverage`] and the weather noise's curl channels (B, A)
-/// there, 0–1 as an `Rgba8Unorm` read gives them. The GPU pass writes the same values in f32.
+/// `origin + (i, j)`: its [`weather_texel_coverage`] and its [`texel_shape_warp`] (in shape
+/// periods). The GPU pass writes the same values in f32.
 /// WGSL twin: `build_weather_map` in `src/render/weather_map/weather_map.wgsl`.
 pub fn build_weather_map(
     weather: &NoiseTexture2d,
@@ -65,17 +66,11 @@ pub fn build_weather_map(
     size: u32,
 ) -> Vec<[f64; 3]> {
     let size = i64::from(size);
-    let n = i64::from(weather.size.max(1));
     (0..size * size)
         .map(|i| {
             let texel = [origin[0] + i % size, origin[1] + i / size];
-            let noise =
-                weather.texels[(texel[0].rem_euclid(n) + n * texel[1].rem_euclid(n)) as usize];
-            [
-                weather_texel_coverage(weather, layer, texel),
-                unorm8(noise[2]),
-                unorm8(noise[3]),
-            ]
+            let [x, y] = texel_shape_warp(weather, layer, texel);
+            [weather_texel_coverage(weather, layer, texel), x, y]
         })
         .collect()
 }
@@ -84,7 +79,7 @@ pub fn build_weather_map(
 mod tests {
     use super::*;
     use crate::reference::noise::{NoiseRecipe, generate_weather};
-    use crate::reference::render::{curl_look_up, weather_coverage, weather_taps};
+    use crate::reference::render::{shape_warp, weather_coverage, weather_taps};
 
     fn weather() -> NoiseTexture2d {
         let recipe = NoiseRecipe {
@@ -108,21 +103,20 @@ mod tests {
         layer
     }
 
-    /// Bilinear read of a map, as the march does inside it: the coverage and the curl as
-    /// `2c − 1`.
+    /// Bilinear read of a map, as the march does inside it: the coverage and the shape warp.
     fn read_map(
         map: &[[f64; 3]],
         origin: [i64; 2],
         size: u32,
         taps: [[(i64, f64); 2]; 2],
     ) -> [f64; 3] {
-        let mut sum = [0.0, -1.0, -1.0];
+        let mut sum = [0.0; 3];
         for corner in 0..4_usize {
             let (x, wx) = taps[0][corner & 1];
             let (y, wy) = taps[1][corner >> 1];
             let local = (x - origin[0]) as usize + size as usize * (y - origin[1]) as usize;
-            for (c, (s, v)) in sum.iter_mut().zip(map[local]).enumerate() {
-                *s += wx * wy * if c == 0 { v } else { 2.0 * v };
+            for (s, v) in sum.iter_mut().zip(map[local]) {
+                *s += wx * wy * v;
             }
         }
         sum
@@ -157,25 +151,26 @@ mod tests {
             }
             if weather_map_holds(origin, size, [taps[0][0].0, taps[1][0].0]) {
                 inside += 1;
-                let [cached, curl @ ..] = read_map(&map, origin, size, taps);
+                let [cached, warp @ ..] = read_map(&map, origin, size, taps);
                 // Only rounding may differ: both sides sum the same four products in f64.
                 assert!(
                     (cached - direct).abs() < 1e-12,
                     "{cached} vs {direct} at {x}, {z}"
                 );
-                let fine = curl_look_up(&weather, taps);
-                for (c, f) in curl.iter().zip(fine) {
+                let direct_warp = shape_warp(&weather, &layer, [x, z], height);
+                for (c, d) in warp.iter().zip(direct_warp) {
+                    let d = d / layer.shape_scale_m;
                     assert!(
-                        (c - f).abs() < 1e-12,
-                        "curl {curl:?} vs {fine:?} at {x}, {z}"
+                        (c - d).abs() < 1e-12,
+                        "warp {warp:?} vs {direct_warp:?} at {x}, {z}"
                     );
                 }
-                if fine.iter().any(|f| f.abs() > 0.1) {
+                if warp.iter().any(|w| w.abs() > 0.05) {
                     curled += 1;
                 }
             }
         }
-        // The test means something: most points fall in the map, and the coverage and the curl
+        // The test means something: most points fall in the map, and the coverage and the warp
         // vary there.
         assert!(inside > 300, "{inside}");
         assert!(varied > 50, "{varied}");

@@ -299,21 +299,43 @@ pub(crate) fn curl_look_up(weather: &NoiseTexture2d, taps: [[(i64, f64); 2]; 2])
     curl
 }
 
-/// Displacement of the base-shape look-up at a point, metres along the noise axes: the sum of
+/// The shape warp at weather texel `texel` (not wrapped), in shape periods per axis: the sum of
 /// two warps, both from the weather noise's curl ([`curl_look_up`]).
 ///
-/// - The fine warp, `±`[`SHAPE_WARP`] of the shape period, is looked up where
-///   [`weather_coverage`] looks (the same four texels): it varies over the weather period, which
-///   is not a multiple of the shape period, so consecutive repeats of the shape are displaced
-///   differently.
-/// - The broad warp, `±`[`SHAPE_WARP_BROAD`] of the shape period, is looked up over
-///   [`BROAD_WARP_PERIODS`] shape periods at `(horizontal + warp_offset) / period`, without
-///   skew: it varies slowly, so it displaces far apart repeats by up to a period without
-///   shearing any one heap.
+/// - The fine warp, `±`[`SHAPE_WARP`] of the shape period: the curl of the texel itself. It
+///   varies over the weather period, which is not a multiple of the shape period, so
+///   consecutive repeats of the shape are displaced differently.
+/// - The broad warp, `±`[`SHAPE_WARP_BROAD`] of the shape period: the curl looked up over
+///   [`BROAD_WARP_PERIODS`] shape periods at the texel's centre (where
+///   [`weather_texel_coverage`] takes the layer's coverage) plus the warp offset. It varies
+///   slowly, so it displaces far apart repeats by up to a period without shearing any one heap.
 ///
-/// Both are periodic in their look-up's period, and the wrapped offsets keep them continuous.
-/// Neither depends on the camera, so the view ray, the light march and the shadow map see the
-/// same shapes. WGSL twin: `shape_warp`.
+/// The GPU's weather map stores exactly this per texel. WGSL twin: `texel_shape_warp`.
+pub fn texel_shape_warp(weather: &NoiseTexture2d, layer: &MarchLayer, texel: [i64; 2]) -> [f64; 2] {
+    let n = weather.size.max(1);
+    let texel_m = layer.weather_scale_m / f64::from(n);
+    let broad_period = BROAD_WARP_PERIODS * layer.shape_scale_m;
+    let broad = curl_look_up(
+        weather,
+        [0, 1].map(|a| {
+            let centre = (texel[a] as f64 + 0.5) * texel_m - layer.weather_offset_m[a];
+            weather_taps((centre + layer.warp_offset_m[a]) / broad_period, n)
+        }),
+    );
+    let fine = curl_look_up(weather, texel.map(|i| [(i, 1.0), (i + 1, 0.0)]));
+    [0, 1].map(|a| SHAPE_WARP * fine[a] + SHAPE_WARP_BROAD * broad[a])
+}
+
+/// Displacement of the base-shape look-up at a point, metres along the noise axes: the bilinear
+/// filter of [`texel_shape_warp`] over the four weather texels [`weather_coverage`] reads, so
+/// the weather map caches it with the coverage and a sample inside the map reads four texels
+/// for both.
+///
+/// The broad warp follows the weather's skew, as the coverage does. Both warps are periodic in
+/// their look-up's period, and the wrapped offsets keep them continuous. Neither depends on the
+/// camera, so the view ray, the light march and the shadow map see the same shapes. WGSL twin:
+/// `shape_warp` (which reads one broad curl instead of four where the four texel centres share
+/// a broad texel cell: the same value, as the broad curl is bilinear in each cell).
 pub fn shape_warp(
     weather: &NoiseTexture2d,
     layer: &MarchLayer,
@@ -321,16 +343,19 @@ pub fn shape_warp(
     height_above_base_m: f64,
 ) -> [f64; 2] {
     let n = weather.size.max(1);
-    let fine = curl_look_up(
-        weather,
-        weather_look_up(n, layer, horizontal_m, height_above_base_m),
-    );
-    let broad_period = BROAD_WARP_PERIODS * layer.shape_scale_m;
-    let broad = curl_look_up(
-        weather,
-        [0, 1].map(|a| weather_taps((horizontal_m[a] + layer.warp_offset_m[a]) / broad_period, n)),
-    );
-    [0, 1].map(|a| (SHAPE_WARP * fine[a] + SHAPE_WARP_BROAD * broad[a]) * layer.shape_scale_m)
+    let taps = weather_look_up(n, layer, horizontal_m, height_above_base_m);
+    let mut warp = [0.0; 2];
+    for corner in 0..4_usize {
+        let (x, wx) = taps[0][corner & 1];
+        let (y, wy) = taps[1][corner >> 1];
+        if wx * wy > 0.0 {
+            let texel = texel_shape_warp(weather, layer, [x, y]);
+            for (w, t) in warp.iter_mut().zip(texel) {
+                *w += wx * wy * t;
+            }
+        }
+    }
+    warp.map(|w| w * layer.shape_scale_m)
 }
 
 /// The fraction of the layer's thickness the profile is stretched over where a cloudy patch is

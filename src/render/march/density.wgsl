@@ -175,11 +175,10 @@ fn weather_look_up(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_b
 // The weather at the skewed weather look-up `x` (`weather_look_up`): x the local coverage, the
 // bilinear filter of `weather_texel_coverage` over the four texels around the look-up, filtered
 // here from texel values rather than by a sampler (the coverage ramp multiplies errors by about
-// 7, and hardware filtering is not exact: lavapipe rounds filtered Rgba8Unorm to 1/255). The
-// march reads the four texels from its weather map when the map holds them, and then y and z are
-// the fine curl of the same four texels (`curl_look_up` of `x`) and w is 1; elsewhere, and in
-// the passes that bind no map, it computes the coverage and w is 0 (y, z unset: the caller calls
-// `curl_look_up` when it needs the curl). Rust: `weather_coverage` and `curl_look_up`.
+// 7, and hardware filtering is not exact: lavapipe rounds filtered Rgba8Unorm to 1/255); y and z
+// the shape warp in shape periods, the same filter of `texel_shape_warp`; w is 1 where the
+// march read the four texels from its weather map, 0 where it computed them (outside the map,
+// and in the passes that bind none). Rust: `weather_coverage` and `shape_warp`.
 fn weather_sample(layer: CloudLayerGpu, x: vec2<f32>) -> vec4<f32> {
     let cell = floor(x);
     let weight = x - cell;
@@ -194,15 +193,15 @@ fn weather_sample(layer: CloudLayerGpu, x: vec2<f32>) -> vec4<f32> {
         let t10 = textureLoad(weather_map, local + vec2<i32>(1, 0), slice, 0).xyz;
         let t01 = textureLoad(weather_map, local + vec2<i32>(0, 1), slice, 0).xyz;
         let t11 = textureLoad(weather_map, local + vec2<i32>(1, 1), slice, 0).xyz;
-        let filtered = mix(mix(t00, t10, weight.x), mix(t01, t11, weight.x), weight.y);
-        return vec4<f32>(filtered.x, 2.0 * filtered.yz - 1.0, 1.0);
+        return vec4<f32>(mix(mix(t00, t10, weight.x), mix(t01, t11, weight.x), weight.y), 1.0);
     }
 #endif
     let k00 = weather_texel_coverage(layer, texel);
     let k10 = weather_texel_coverage(layer, texel + vec2<i32>(1, 0));
     let k01 = weather_texel_coverage(layer, texel + vec2<i32>(0, 1));
     let k11 = weather_texel_coverage(layer, texel + vec2<i32>(1, 1));
-    return vec4<f32>(mix(mix(k00, k10, weight.x), mix(k01, k11, weight.x), weight.y), 0.0, 0.0, 0.0);
+    let kappa = mix(mix(k00, k10, weight.x), mix(k01, k11, weight.x), weight.y);
+    return vec4<f32>(kappa, 0.0, 0.0, 0.0);
 }
 
 // Local coverage of a layer at `horizontal_m`, `height_above_base_m` up (`weather_sample`).
@@ -226,15 +225,47 @@ fn curl_look_up(x: vec2<f32>) -> vec2<f32> {
     return 2.0 * mix(mix(c00, c10, weight.x), mix(c01, c11, weight.x), weight.y) - 1.0;
 }
 
-// Displacement (metres) of the base-shape look-up, so repeats of the shape do not add up to
-// streaks along grazing rays: the fine warp, +-SHAPE_WARP of the shape period from `fine`, the
-// curl at the look-up `weather_coverage` uses (`weather_sample`), plus the broad warp,
-// +-SHAPE_WARP_BROAD of the period from the curl over BROAD_WARP_PERIODS shape periods (no
-// skew). Rust: `shape_warp`.
-fn shape_warp(layer: CloudLayerGpu, horizontal_m: vec2<f32>, fine: vec2<f32>) -> vec2<f32> {
+// The broad curl's look-up, in weather-noise texel units (texel centres at integers), for the
+// weather look-up `x` (`weather_look_up`): the skewed horizontal point of `x` plus the warp
+// offset, over BROAD_WARP_PERIODS shape periods. Affine in `x`, axis by axis. Rust: the broad
+// look-up inside `texel_shape_warp`.
+fn broad_look_up(layer: CloudLayerGpu, x: vec2<f32>) -> vec2<f32> {
     let size = f32(textureDimensions(weather_noise).x);
-    let broad_uv = (horizontal_m + layer.warp_offset_m) / (BROAD_WARP_PERIODS * layer.shape_scale_m);
-    let broad = curl_look_up(broad_uv * size - 0.5);
+    let skewed_m = (x + 0.5) * (layer.weather_scale_m / size) - layer.weather_offset_m.xy;
+    return (skewed_m + layer.warp_offset_m) / (BROAD_WARP_PERIODS * layer.shape_scale_m) * size - 0.5;
+}
+
+// The shape warp at weather texel `texel` (not wrapped), in shape periods: SHAPE_WARP of the
+// weather noise's curl there plus SHAPE_WARP_BROAD of the broad curl at the texel's centre. The
+// weather-map pass stores exactly this. Rust: `texel_shape_warp`.
+fn texel_shape_warp(layer: CloudLayerGpu, texel: vec2<i32>) -> vec2<f32> {
+    let fine = curl_look_up(vec2<f32>(texel));
+    let broad = curl_look_up(broad_look_up(layer, vec2<f32>(texel)));
+    return SHAPE_WARP * fine + SHAPE_WARP_BROAD * broad;
+}
+
+// Displacement (metres) of the base-shape look-up at the weather look-up `x`, computed where
+// the weather map does not hold it: the bilinear filter of `texel_shape_warp` over the four
+// texels around `x`. The fine curl's filter is `curl_look_up` of `x`. The broad curl is bilinear
+// over its own texels and its look-up affine in `x`, so where the four texel centres share a
+// broad cell (nine in ten along each axis at the default periods) the filter of their broad
+// curls is the broad curl at `x` itself, one look-up instead of four. Rust: `shape_warp`.
+fn shape_warp(layer: CloudLayerGpu, x: vec2<f32>) -> vec2<f32> {
+    let cell = floor(x);
+    let fine = curl_look_up(x);
+    let b0 = broad_look_up(layer, cell);
+    let b1 = broad_look_up(layer, cell + 1.0);
+    var broad: vec2<f32>;
+    if all(floor(b0) == floor(b1)) {
+        broad = curl_look_up(broad_look_up(layer, x));
+    } else {
+        let weight = x - cell;
+        let c00 = curl_look_up(b0);
+        let c10 = curl_look_up(vec2<f32>(b1.x, b0.y));
+        let c01 = curl_look_up(vec2<f32>(b0.x, b1.y));
+        let c11 = curl_look_up(b1);
+        broad = mix(mix(c00, c10, weight.x), mix(c01, c11, weight.x), weight.y);
+    }
     return (SHAPE_WARP * fine + SHAPE_WARP_BROAD * broad) * layer.shape_scale_m;
 }
 
@@ -265,11 +296,10 @@ fn layer_density(index: u32, horizontal_m: vec2<f32>, altitude_m: f32, footprint
     let strength = saturate(layer.shape_strength);
     var shape = 1.0;
     if strength > 0.0 {
-        var fine = weather.yz;
+        var warp = weather.yz * layer.shape_scale_m;
         if weather.w == 0.0 {
-            fine = curl_look_up(look_up);
+            warp = shape_warp(layer, look_up);
         }
-        let warp = shape_warp(layer, horizontal_m, fine);
         let uvw = vec3<f32>(horizontal_m.x + layer.noise_offset_m.x + warp.x, altitude_m, horizontal_m.y + layer.noise_offset_m.y + warp.y)
             / layer.shape_scale_m;
         let texel_m = layer.shape_scale_m / f32(textureDimensions(base_noise).x);

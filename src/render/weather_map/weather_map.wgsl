@@ -1,12 +1,10 @@
-// The weather map: each layer's local coverage and the weather noise's curl per weather texel
-// around the camera, one array slice per layer, which the march reads instead of recomputing the
-// coverage and reloading the curl at every sample.
+// The weather map: each layer's local coverage and shape warp per weather texel around the
+// camera, one array slice per layer, which the march reads instead of recomputing the coverage
+// and the warp's curl look-ups at every sample.
 // Rust side: `src/render/weather_map/mod.rs`; CPU twin: `src/reference/weather_map.rs`.
 
 #import bevy_cloudscape::cloud_parameters::cloud_layers
-#import bevy_cloudscape::cloud_density::weather_texel_coverage
-#import bevy_cloudscape::cloud_geometry::wrap_texel
-#import bevy_cloudscape::cloud_textures::weather_noise
+#import bevy_cloudscape::cloud_density::{texel_shape_warp, weather_texel_coverage}
 
 // 16 bytes. Mirror in Rust: `GpuWeatherMapUniforms`.
 struct WeatherMapUniforms {
@@ -22,8 +20,8 @@ struct WeatherMapUniforms {
 @group(0) @binding(1) var<uniform> map: WeatherMapUniforms;
 
 // Texel (i, j) of slice s holds weather texel origin + (i, j) of layer s, where the origin is the
-// layer's `weather_map.xy`: its local coverage and the weather noise's curl channels (B, A) as
-// read, 0-1. Rust: `build_weather_map`.
+// layer's `weather_map.xy`: its local coverage and its shape warp in shape periods
+// (`texel_shape_warp`). Rust: `build_weather_map`.
 @compute @workgroup_size(8, 8, 1)
 fn build_weather_map(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= map.size || id.y >= map.size || id.z >= map.slices {
@@ -32,6 +30,6 @@ fn build_weather_map(@builtin(global_invocation_id) id: vec3<u32>) {
     let layer = cloud_layers[id.z];
     let texel = vec2<i32>(layer.weather_map.xy) + vec2<i32>(id.xy);
     let kappa = weather_texel_coverage(layer, texel);
-    let curl = textureLoad(weather_noise, wrap_texel(texel, vec2<i32>(textureDimensions(weather_noise))), 0).zw;
-    textureStore(weather_map_out, vec2<i32>(id.xy), i32(id.z), vec4<f32>(kappa, curl, 0.0));
+    let warp = texel_shape_warp(layer, texel);
+    textureStore(weather_map_out, vec2<i32>(id.xy), i32(id.z), vec4<f32>(kappa, warp, 0.0));
 }

@@ -332,3 +332,72 @@ fn profile_column_is_the_integral_of_the_profile() {
         assert_eq!(profile_column(&layer, -1.0), 0.0);
     }
 }
+
+#[test]
+fn the_shape_warp_needs_one_broad_curl_where_the_texel_centres_share_a_broad_cell() {
+    // The WGSL `shape_warp` reads the broad curl once, at the look-up itself, where the four
+    // weather texel centres around it fall in one broad texel cell, instead of filtering the
+    // four texels' broad curls. Both are the same bilinear function there: this checks the
+    // identity on the twin, with skew, height and offsets that move the broad look-up off the
+    // weather grid, and that the four-curl path is the one taken across cell edges.
+    let weather = &textures().weather;
+    let n = weather.size;
+    let mut layer = cumulus(0.5);
+    layer.skew = [0.7, -0.3];
+    layer.weather_offset_m = [1_234.5, -987.25];
+    layer.warp_offset_m = [40_321.0, 7_777.0];
+    let texel_m = layer.weather_scale_m / f64::from(n);
+    let broad_period = BROAD_WARP_PERIODS * layer.shape_scale_m;
+    let broad_c = |a: usize, x: f64| {
+        ((x + 0.5) * texel_m - layer.weather_offset_m[a] + layer.warp_offset_m[a]) / broad_period
+    };
+    let (mut shared, mut straddling) = (0, 0);
+    for i in 0..120 {
+        for j in 0..120 {
+            let horizontal = [
+                f64::from(i) * 397.0 - 20_000.0,
+                f64::from(j) * 433.0 - 9_000.0,
+            ];
+            let height = f64::from((i * 7 + j) % 11) * 150.0;
+            let x: [f64; 2] = [0, 1].map(|a| {
+                (horizontal[a] + layer.weather_offset_m[a] + layer.skew[a] * height)
+                    / layer.weather_scale_m
+                    * f64::from(n)
+                    - 0.5
+            });
+            let same_cell = (0..2).all(|a| {
+                let cell = x[a].floor();
+                let lo = broad_c(a, cell) * f64::from(n) - 0.5;
+                let hi = broad_c(a, cell + 1.0) * f64::from(n) - 0.5;
+                lo.floor() == hi.floor()
+            });
+            let warp = shape_warp(weather, &layer, horizontal, height);
+            if !same_cell {
+                straddling += 1;
+                continue;
+            }
+            shared += 1;
+            let fine_taps = [0, 1].map(|a| weather_taps((x[a] + 0.5) / f64::from(n), n));
+            let broad_taps = [0, 1].map(|a| weather_taps(broad_c(a, x[a]), n));
+            let fine = curl_look_up(weather, fine_taps);
+            let broad = curl_look_up(weather, broad_taps);
+            for a in 0..2 {
+                let one_look_up =
+                    (SHAPE_WARP * fine[a] + SHAPE_WARP_BROAD * broad[a]) * layer.shape_scale_m;
+                assert!(
+                    (warp[a] - one_look_up).abs() < 1e-9 * layer.shape_scale_m,
+                    "axis {a} at {horizontal:?}, {height} m: filter {} against one look-up \
+                     {one_look_up}",
+                    warp[a]
+                );
+            }
+        }
+    }
+    println!("{shared} look-ups share a broad cell, {straddling} straddle one");
+    // The one-look-up path is the common case, or it would not be worth a branch.
+    assert!(
+        shared > 2 * straddling,
+        "{shared} shared, {straddling} straddling"
+    );
+    assert!(straddling > 0, "the straddling path must be exercised");
+}
