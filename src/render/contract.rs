@@ -103,6 +103,10 @@ fn rust_constants() -> Vec<(&'static str, Vec<f64>)> {
             "PAST_CUTOFF_MIN_LIGHT_STEPS",
             scalar(PAST_CUTOFF_MIN_LIGHT_STEPS.into()),
         ),
+        (
+            "FULL_LIGHT_STEPS_TRANSMITTANCE",
+            scalar(FULL_LIGHT_STEPS_TRANSMITTANCE),
+        ),
         ("CLEAR_STEP_OPTICAL_DEPTH", scalar(CLEAR_STEP_OPTICAL_DEPTH)),
         ("EDGE_SEARCH_STEPS", scalar(EDGE_SEARCH_STEPS.into())),
         ("PRECIPITATION_ABSORPTION", scalar(PRECIPITATION_ABSORPTION)),

@@ -70,7 +70,10 @@ pub struct VolumetricClouds {
     pub primary_steps: u32,
     /// Steps of the light march toward the sun from each sample (0–64; 0 = unshadowed), over
     /// a light path up to 2 km long; a longer path (a low sun's) takes proportionally more, up
-    /// to 64. Default 14 (`LOW` 10, `HIGH` 24, `ULTRA` 32).
+    /// to 64. With an early exit ([`VolumetricClouds::transmittance_cutoff`] above 0), samples
+    /// deep in a cloud take fewer: in proportion to the view transmittance once it is below
+    /// 0.25 (never fewer than 4), as their light counts for that much less. Default 14 (`LOW` 10, `HIGH`
+    /// 24, `ULTRA` 32).
     pub light_steps: u32,
     /// How fast steps grow with distance from the camera, 1/m: a step at distance `d` is
     /// `1 + step_growth · d` times longer than one at the camera. 0 keeps steps even.
@@ -79,7 +82,8 @@ pub struct VolumetricClouds {
     /// [`VolumetricClouds::multiple_scattering`] that is the δ-scaled medium's transmittance
     /// `e^(−(1 − f) τ)` (`f` the phase's forward fraction), which carries a backlit cloud's glow
     /// and the sky behind a thin cloud: the true medium's `e^(−τ)` reaches the cut-off several
-    /// times sooner and drops them. Default 0.01 (`ULTRA` 0.002).
+    /// times sooner and drops them. 0 marches every ray to its end with every light step
+    /// ([`VolumetricClouds::light_steps`]). Default 0.01 (`ULTRA` 0.002).
     pub transmittance_cutoff: f32,
     /// Light scattered more than once: the δ-Eddington diffuse field of the sun and the sky in
     /// each cloud (validated against DISORT, `validation/README.md`). Off, the clouds get

@@ -41,8 +41,16 @@ pub const MAX_PARTS: u32 = 32;
 /// How many times fewer light steps a sample past the cut-off takes (see [`light_steps_at`]).
 pub const PAST_CUTOFF_LIGHT_STEP_DIVISOR: u32 = 4;
 
-/// The fewest light steps a sample past the cut-off takes, unless the preset takes fewer.
+/// The fewest light steps a sample past the cut-off, or deep enough in the cloud
+/// ([`FULL_LIGHT_STEPS_TRANSMITTANCE`]), takes, unless the preset takes fewer.
 pub const PAST_CUTOFF_MIN_LIGHT_STEPS: u32 = 4;
+
+/// Below this view transmittance (the one the early exit compares with the cut-off), a
+/// sample's light steps fall in proportion to it, down to [`PAST_CUTOFF_MIN_LIGHT_STEPS`]: the
+/// sample's light reaches the camera times that transmittance, so an error in its sun's
+/// optical depth counts for that much less. With an early exit only (a cut-off of 0 keeps
+/// every light step, as the converged reference does). See [`light_steps_at`].
+pub const FULL_LIGHT_STEPS_TRANSMITTANCE: f64 = 0.25;
 
 /// A primary step thinner than this (optical thickness at its sample) counts as clear for the
 /// edge search of the dense step after it.
@@ -426,7 +434,9 @@ impl Ray<'_> {
         let mut sun_optical_depth_at = None;
         let light_steps = light_steps_at(
             settings.light_steps,
-            self.transmittance <= settings.transmittance_cutoff,
+            self.transmittance,
+            self.cutoff_transmittance(),
+            settings.transmittance_cutoff,
         );
         if self.sun_on {
             let light_march = |max_distance: f64, steps: u32| {
@@ -675,15 +685,32 @@ pub fn march_clouds(
     }
 }
 
-/// The light steps of a sample: all of `light_steps`, or a quarter of them (at least 4) once
-/// the true medium's transmittance is past the cut-off (`past_cutoff`). There the march goes on
-/// only for the δ-scaled light of multiple scattering (see [`Ray::cutoff_transmittance`]), and
-/// the light march is most of a sample's cost.
-pub(crate) fn light_steps_at(light_steps: u32, past_cutoff: bool) -> u32 {
-    if past_cutoff {
-        (light_steps / PAST_CUTOFF_LIGHT_STEP_DIVISOR)
-            .max(light_steps.min(PAST_CUTOFF_MIN_LIGHT_STEPS))
-    } else {
-        light_steps
+/// The light steps of a sample, from the view ray's `transmittance` and `cutoff_transmittance`
+/// before it ([`Ray::cutoff_transmittance`]) and the early exit's `cutoff`:
+///
+/// - past the true medium's cut-off (`transmittance <= cutoff`), a quarter of `light_steps`
+///   (at least 4). There the march goes on only for the δ-scaled light of multiple scattering
+///   (see [`Ray::cutoff_transmittance`]), and the light march is most of a sample's cost;
+/// - with an early exit (`cutoff > 0`) and `cutoff_transmittance` below
+///   [`FULL_LIGHT_STEPS_TRANSMITTANCE`], `light_steps` times their ratio, rounded up (at least
+///   4), if that is fewer;
+/// - all of `light_steps` otherwise.
+///
+/// WGSL twin: `light_steps_at`.
+pub(crate) fn light_steps_at(
+    light_steps: u32,
+    transmittance: f64,
+    cutoff_transmittance: f64,
+    cutoff: f64,
+) -> u32 {
+    let fewest = light_steps.min(PAST_CUTOFF_MIN_LIGHT_STEPS);
+    let mut steps = light_steps;
+    if transmittance <= cutoff {
+        steps = (light_steps / PAST_CUTOFF_LIGHT_STEP_DIVISOR).max(fewest);
     }
+    if cutoff > 0.0 && cutoff_transmittance < FULL_LIGHT_STEPS_TRANSMITTANCE {
+        let share = cutoff_transmittance / FULL_LIGHT_STEPS_TRANSMITTANCE;
+        steps = steps.min(((f64::from(light_steps) * share).ceil() as u32).max(fewest));
+    }
+    steps
 }

@@ -62,6 +62,9 @@ const MAX_PARTS: u32 = 32u;
 // `PAST_CUTOFF_MIN_LIGHT_STEPS`).
 const PAST_CUTOFF_LIGHT_STEP_DIVISOR: u32 = 4u;
 const PAST_CUTOFF_MIN_LIGHT_STEPS: u32 = 4u;
+// Below this view transmittance the light steps fall in proportion to it (Rust:
+// `FULL_LIGHT_STEPS_TRANSMITTANCE`).
+const FULL_LIGHT_STEPS_TRANSMITTANCE: f32 = 0.25;
 const CLEAR_STEP_OPTICAL_DEPTH: f32 = 0.1;
 const EDGE_SEARCH_STEPS: u32 = 6u;
 
@@ -323,13 +326,21 @@ fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32, clear_from: f32) -
     return x;
 }
 
-// The light steps of a sample: a quarter of them, at least PAST_CUTOFF_MIN_LIGHT_STEPS (or all
-// when there are fewer), past the true medium's cut-off. Rust: `light_steps_at`.
-fn light_steps_at(light_steps: u32, past_cutoff: bool) -> u32 {
-    if past_cutoff {
-        return max(light_steps / PAST_CUTOFF_LIGHT_STEP_DIVISOR, min(light_steps, PAST_CUTOFF_MIN_LIGHT_STEPS));
+// The light steps of a sample from the view ray's transmittance and cut-off transmittance
+// before it: a quarter of them, at least PAST_CUTOFF_MIN_LIGHT_STEPS (or all when there are
+// fewer), past the true medium's cut-off; with an early exit, in proportion to the cut-off
+// transmittance below FULL_LIGHT_STEPS_TRANSMITTANCE if that is fewer. Rust: `light_steps_at`.
+fn light_steps_at(light_steps: u32, transmittance: f32, cutoff_transmittance: f32, cutoff: f32) -> u32 {
+    let fewest = min(light_steps, PAST_CUTOFF_MIN_LIGHT_STEPS);
+    var steps = light_steps;
+    if transmittance <= cutoff {
+        steps = max(light_steps / PAST_CUTOFF_LIGHT_STEP_DIVISOR, fewest);
     }
-    return light_steps;
+    if cutoff > 0.0 && cutoff_transmittance < FULL_LIGHT_STEPS_TRANSMITTANCE {
+        let share = cutoff_transmittance / FULL_LIGHT_STEPS_TRANSMITTANCE;
+        steps = min(steps, max(u32(ceil(f32(light_steps) * share)), fewest));
+    }
+    return steps;
 }
 
 // Integrates the medium sampled at t over a step dt long: the analytic integral across the
@@ -343,8 +354,8 @@ fn integrate_step(ray: ptr<function, MarchRay>, t: f32, dt: f32, medium: Medium,
     let x = extinction * dt;
     let weight = (*ray).transmittance * dt * mean_step_transmittance(x);
     let scaled_weight = exp(-scaled * (*ray).optical_depth) * dt * mean_step_transmittance(scaled * x);
-    // Past the true medium's cut-off only the scaled light is left: fewer light steps.
-    let light_steps = light_steps_at(clouds.light_steps, (*ray).transmittance <= clouds.transmittance_cutoff);
+    // Deep in the cloud, and past the true medium's cut-off, fewer light steps.
+    let light_steps = light_steps_at(clouds.light_steps, (*ray).transmittance, cutoff_transmittance(ray), clouds.transmittance_cutoff);
     light_queue[queued] = QueuedSample(medium.ambient, t, medium.scattering, medium.column_above, medium.column_below, extinction, share * weight, share * scaled_weight, light_steps);
     (*ray).tail_a = queued;
     (*ray).tail_share_a = 1.0;

@@ -570,16 +570,24 @@ fn a_black_object_at_the_visibility_distance_keeps_koschmieders_contrast() {
 }
 
 #[test]
-fn samples_past_the_cutoff_march_a_quarter_of_the_light_steps() {
-    use super::march::light_steps_at;
-    // Before the cut-off every sample takes the preset's light steps.
+fn samples_deep_in_the_cloud_march_fewer_light_steps() {
+    use super::march::{FULL_LIGHT_STEPS_TRANSMITTANCE, light_steps_at};
+    let full = FULL_LIGHT_STEPS_TRANSMITTANCE;
+    // Near the cloud's surface every sample takes the preset's light steps.
     for steps in [1, 4, 10, 14, 24] {
-        assert_eq!(light_steps_at(steps, false), steps);
+        assert_eq!(light_steps_at(steps, 1.0, 1.0, 0.01), steps);
+        assert_eq!(light_steps_at(steps, full, full, 0.01), steps);
     }
-    // Past it a quarter, never fewer than 4 nor more than the preset's.
-    assert_eq!(light_steps_at(24, true), 6);
-    assert_eq!(light_steps_at(14, true), 4);
-    assert_eq!(light_steps_at(10, true), 4);
-    assert_eq!(light_steps_at(3, true), 3);
-    assert_eq!(light_steps_at(1, true), 1);
+    // Deeper, in proportion to the cut-off transmittance, rounded up, never fewer than 4 nor
+    // more than the preset's.
+    assert_eq!(light_steps_at(14, 0.02, 0.5 * full, 0.01), 7);
+    assert_eq!(light_steps_at(24, 0.05, 0.2 * full, 0.01), 5);
+    assert_eq!(light_steps_at(14, 0.05, 0.2 * full, 0.01), 4);
+    assert_eq!(light_steps_at(3, 0.05, 0.2 * full, 0.01), 3);
+    // Past the true medium's cut-off a quarter, if that is fewer.
+    assert_eq!(light_steps_at(24, 0.01, 0.8 * full, 0.01), 6);
+    assert_eq!(light_steps_at(14, 0.005, 0.6 * full, 0.01), 4);
+    assert_eq!(light_steps_at(1, 0.005, 0.6 * full, 0.01), 1);
+    // Without an early exit (the converged reference) every light step, however deep.
+    assert_eq!(light_steps_at(64, 0.001, 0.01 * full, 0.0), 64);
 }
