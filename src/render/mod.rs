@@ -72,8 +72,8 @@ pub struct VolumetricClouds {
     /// a light path up to 2 km long; a longer path (a low sun's) takes proportionally more, up
     /// to 64. With an early exit ([`VolumetricClouds::transmittance_cutoff`] above 0), samples
     /// deep in a cloud take fewer: in proportion to the view transmittance once it is below
-    /// 0.25 (never fewer than 4), as their light counts for that much less. Default 14 (`LOW` 10, `HIGH`
-    /// 24, `ULTRA` 32).
+    /// 0.25 (never fewer than 4), as their light counts for that much less. Default 14 (`LOW`
+    /// 10, `HIGH` 24, `ULTRA` 32).
     pub light_steps: u32,
     /// How fast steps grow with distance from the camera, 1/m: a step at distance `d` is
     /// `1 + step_growth · d` times longer than one at the camera. 0 keeps steps even.

@@ -210,7 +210,7 @@ pub fn weather_taps(c: f64, n: u32) -> [(i64, f64); 2] {
 /// `horizontal_m` (relative to the camera, along the noise axes) and `height_above_base_m` on
 /// `n` texels: `(horizontal + weather_offset + skew · height) / weather_scale`. WGSL twin: the
 /// first lines of `weather_coverage` and `shape_warp`.
-fn weather_look_up(
+pub(super) fn weather_look_up(
     n: u32,
     layer: &MarchLayer,
     horizontal_m: [f64; 2],
@@ -299,6 +299,20 @@ pub(crate) fn curl_look_up(weather: &NoiseTexture2d, taps: [[(i64, f64); 2]; 2])
     curl
 }
 
+/// The broad curl's look-up per axis, in weather-noise texel units (texel centres at integers)
+/// on `n` texels, for the weather look-up `x` in the same units ([`weather_look_up`]): the
+/// skewed horizontal point of `x` plus the warp offset, over [`BROAD_WARP_PERIODS`] shape
+/// periods. Affine in `x`, axis by axis. WGSL twin: `broad_look_up`.
+pub(super) fn broad_look_up(n: u32, layer: &MarchLayer, x: [f64; 2]) -> [f64; 2] {
+    let n = f64::from(n);
+    let texel_m = layer.weather_scale_m / n;
+    let broad_period = BROAD_WARP_PERIODS * layer.shape_scale_m;
+    [0, 1].map(|a| {
+        let skewed_m = (x[a] + 0.5) * texel_m - layer.weather_offset_m[a];
+        (skewed_m + layer.warp_offset_m[a]) / broad_period * n - 0.5
+    })
+}
+
 /// The shape warp at weather texel `texel` (not wrapped), in shape periods per axis: the sum of
 /// two warps, both from the weather noise's curl ([`curl_look_up`]).
 ///
@@ -313,14 +327,10 @@ pub(crate) fn curl_look_up(weather: &NoiseTexture2d, taps: [[(i64, f64); 2]; 2])
 /// The GPU's weather map stores exactly this per texel. WGSL twin: `texel_shape_warp`.
 pub fn texel_shape_warp(weather: &NoiseTexture2d, layer: &MarchLayer, texel: [i64; 2]) -> [f64; 2] {
     let n = weather.size.max(1);
-    let texel_m = layer.weather_scale_m / f64::from(n);
-    let broad_period = BROAD_WARP_PERIODS * layer.shape_scale_m;
     let broad = curl_look_up(
         weather,
-        [0, 1].map(|a| {
-            let centre = (texel[a] as f64 + 0.5) * texel_m - layer.weather_offset_m[a];
-            weather_taps((centre + layer.warp_offset_m[a]) / broad_period, n)
-        }),
+        broad_look_up(n, layer, texel.map(|i| i as f64))
+            .map(|b| weather_taps((b + 0.5) / f64::from(n), n)),
     );
     let fine = curl_look_up(weather, texel.map(|i| [(i, 1.0), (i + 1, 0.0)]));
     [0, 1].map(|a| SHAPE_WARP * fine[a] + SHAPE_WARP_BROAD * broad[a])

@@ -227,8 +227,8 @@ fn curl_look_up(x: vec2<f32>) -> vec2<f32> {
 
 // The broad curl's look-up, in weather-noise texel units (texel centres at integers), for the
 // weather look-up `x` (`weather_look_up`): the skewed horizontal point of `x` plus the warp
-// offset, over BROAD_WARP_PERIODS shape periods. Affine in `x`, axis by axis. Rust: the broad
-// look-up inside `texel_shape_warp`.
+// offset, over BROAD_WARP_PERIODS shape periods. Affine in `x`, axis by axis. Rust:
+// `broad_look_up`.
 fn broad_look_up(layer: CloudLayerGpu, x: vec2<f32>) -> vec2<f32> {
     let size = f32(textureDimensions(weather_noise).x);
     let skewed_m = (x + 0.5) * (layer.weather_scale_m / size) - layer.weather_offset_m.xy;

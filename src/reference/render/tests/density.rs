@@ -346,11 +346,7 @@ fn the_shape_warp_needs_one_broad_curl_where_the_texel_centres_share_a_broad_cel
     layer.skew = [0.7, -0.3];
     layer.weather_offset_m = [1_234.5, -987.25];
     layer.warp_offset_m = [40_321.0, 7_777.0];
-    let texel_m = layer.weather_scale_m / f64::from(n);
-    let broad_period = BROAD_WARP_PERIODS * layer.shape_scale_m;
-    let broad_c = |a: usize, x: f64| {
-        ((x + 0.5) * texel_m - layer.weather_offset_m[a] + layer.warp_offset_m[a]) / broad_period
-    };
+    let taps_at = |b: [f64; 2]| b.map(|c| weather_taps((c + 0.5) / f64::from(n), n));
     let (mut shared, mut straddling) = (0, 0);
     for i in 0..120 {
         for j in 0..120 {
@@ -359,28 +355,22 @@ fn the_shape_warp_needs_one_broad_curl_where_the_texel_centres_share_a_broad_cel
                 f64::from(j) * 433.0 - 9_000.0,
             ];
             let height = f64::from((i * 7 + j) % 11) * 150.0;
-            let x: [f64; 2] = [0, 1].map(|a| {
-                (horizontal[a] + layer.weather_offset_m[a] + layer.skew[a] * height)
-                    / layer.weather_scale_m
-                    * f64::from(n)
-                    - 0.5
-            });
-            let same_cell = (0..2).all(|a| {
-                let cell = x[a].floor();
-                let lo = broad_c(a, cell) * f64::from(n) - 0.5;
-                let hi = broad_c(a, cell + 1.0) * f64::from(n) - 0.5;
-                lo.floor() == hi.floor()
-            });
+            let fine_taps = weather_look_up(n, &layer, horizontal, height);
+            // The look-up in texel units: the first texel plus the second's weight.
+            let x = fine_taps.map(|[(i0, _), (_, w)]| i0 as f64 + w);
+            let cell = x.map(f64::floor);
+            let (lo, hi) = (
+                broad_look_up(n, &layer, cell),
+                broad_look_up(n, &layer, cell.map(|c| c + 1.0)),
+            );
             let warp = shape_warp(weather, &layer, horizontal, height);
-            if !same_cell {
+            if (0..2).any(|a| lo[a].floor() != hi[a].floor()) {
                 straddling += 1;
                 continue;
             }
             shared += 1;
-            let fine_taps = [0, 1].map(|a| weather_taps((x[a] + 0.5) / f64::from(n), n));
-            let broad_taps = [0, 1].map(|a| weather_taps(broad_c(a, x[a]), n));
             let fine = curl_look_up(weather, fine_taps);
-            let broad = curl_look_up(weather, broad_taps);
+            let broad = curl_look_up(weather, taps_at(broad_look_up(n, &layer, x)));
             for a in 0..2 {
                 let one_look_up =
                     (SHAPE_WARP * fine[a] + SHAPE_WARP_BROAD * broad[a]) * layer.shape_scale_m;
