@@ -93,6 +93,7 @@ fn rust_constants() -> Vec<(&'static str, Vec<f64>)> {
         ("CHEAP_STRIDE", scalar(CHEAP_STRIDE.into())),
         ("EMPTY_STEPS_TO_CHEAP", scalar(EMPTY_STEPS_TO_CHEAP.into())),
         ("MAX_STEP_OPTICAL_DEPTH", scalar(MAX_STEP_OPTICAL_DEPTH)),
+        ("PART_OFFSET_THIN", scalar(PART_OFFSET_THIN)),
         ("MAX_SUBSTEPS", scalar(MAX_SUBSTEPS.into())),
         ("MAX_PARTS", scalar(MAX_PARTS.into())),
         (

@@ -29,7 +29,7 @@ pub const EMPTY_STEPS_TO_CHEAP: u32 = 4;
 
 /// Largest optical thickness one primary step integrates from a single sample: a denser step
 /// is marched again in parts this thick, from the cloud's edge (see the march's `step`).
-pub const MAX_STEP_OPTICAL_DEPTH: f64 = 1.0;
+pub const MAX_STEP_OPTICAL_DEPTH: f64 = 2.0;
 
 /// Most cloudy parts a dense primary step is marched in; the last reaches the step's end.
 /// Empty parts do not count (see [`MAX_PARTS`]).
@@ -62,6 +62,24 @@ pub const CLEAR_STEP_OPTICAL_DEPTH: f64 = 0.1;
 pub fn dense_step_weight(x: f64) -> f64 {
     saturate(x / MAX_STEP_OPTICAL_DEPTH - 1.0)
 }
+
+/// Where in a part of a dense step, `length` metres long at extinction `sigma` (1/m), the part
+/// samples its medium for a jitter `u` (0–1): the point whose depth splits the part's
+/// transmittance-weighted length (`∫ e^(−σs) ds`) at `u`, `−ln(1 − u (1 − e^(−σℓ))) / σ`.
+/// Averaged over jitters, one sample there integrates a homogeneous part exactly; a uniform
+/// offset would weigh the part's far end, which the camera sees through `e^(−σℓ)`, as much as its
+/// near end. Uniform where the part is optically thin. WGSL twin: `part_offset`.
+pub fn part_offset(u: f64, sigma: f64, length: f64) -> f64 {
+    let x = sigma * length;
+    if x.is_nan() || x <= PART_OFFSET_THIN {
+        return u * length;
+    }
+    (-(u * (-x).exp_m1()).ln_1p() / sigma).clamp(0.0, length)
+}
+
+/// Optical thickness below which [`part_offset`] places the sample uniformly (the weighted and
+/// the uniform offsets differ there by less than `x / 12` of the part).
+pub const PART_OFFSET_THIN: f64 = 1e-3;
 
 /// Bisections that locate a cloud's edge between the last clear point and a dense step's
 /// sample: the edge is found to 1/64 of that span.
@@ -321,10 +339,10 @@ impl Ray<'_> {
     /// `None` inside a cloud. The edge is then searched for between it and
     /// this step's sample by [`EDGE_SEARCH_STEPS`] bisections. From the edge (or from `ta`
     /// inside a cloud) the march takes parts of optical thickness [`MAX_STEP_OPTICAL_DEPTH`] at
-    /// the step's sample, each sampled at its jittered point, at most [`MAX_SUBSTEPS`] (the last
+    /// the step's sample, each sampled at the [`part_offset`] of the jitter, at most [`MAX_SUBSTEPS`] (the last
     /// reaching `tb`), until the transmittance cut-off.
     ///
-    /// Between `x` = 1 and 2 × [`MAX_STEP_OPTICAL_DEPTH`] the result is the one-sample step and
+    /// Between `x` = 1 and 2 times [`MAX_STEP_OPTICAL_DEPTH`] the result is the one-sample step and
     /// the parts mixed in proportion ([`dense_step_weight`]), so it is continuous in the
     /// density: a step whose density lies at the threshold gives the same light whichever side
     /// of it rounding puts the density (the GPU's 8-bit noise against the reference's f64).
@@ -360,7 +378,8 @@ impl Ray<'_> {
             }
             from = lo;
         }
-        let length = MAX_STEP_OPTICAL_DEPTH / medium.extinction;
+        let length_sigma = medium.extinction;
+        let length = MAX_STEP_OPTICAL_DEPTH / length_sigma;
         let mut cloudy = 0;
         for i in 0..MAX_PARTS {
             if !is_positive(tb - from) {
@@ -373,7 +392,7 @@ impl Ray<'_> {
             } else {
                 (from + length).min(tb)
             };
-            let t = from + self.jitter * (to - from);
+            let t = from + part_offset(self.jitter, length_sigma, to - from);
             let medium = self.medium(t);
             if is_positive(medium.extinction) {
                 self.integrate(t, to - from, &medium);

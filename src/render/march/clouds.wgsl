@@ -55,7 +55,8 @@
 const MAX_PRIMARY_STEPS: u32 = 1024u;
 const CHEAP_STRIDE: u32 = 4u;
 const EMPTY_STEPS_TO_CHEAP: u32 = 4u;
-const MAX_STEP_OPTICAL_DEPTH: f32 = 1.0;
+const MAX_STEP_OPTICAL_DEPTH: f32 = 2.0;
+const PART_OFFSET_THIN: f32 = 1e-3;
 const MAX_SUBSTEPS: u32 = 8u;
 const MAX_PARTS: u32 = 32u;
 // Light steps past the cut-off: a quarter, at least 4 (Rust: `PAST_CUTOFF_LIGHT_STEP_DIVISOR`,
@@ -242,10 +243,21 @@ fn dense_step_weight(x: f32) -> f32 {
     return saturate(x / MAX_STEP_OPTICAL_DEPTH - 1.0);
 }
 
+// Where in a part of a dense step the part samples its medium: the depth that splits the
+// part's transmittance-weighted length at u. Rust: `part_offset`.
+fn part_offset(u: f32, sigma: f32, len: f32) -> f32 {
+    let x = sigma * len;
+    if !(x > PART_OFFSET_THIN) {
+        return u * len;
+    }
+    return clamp(-log(1.0 - u * (1.0 - exp(-x))) / sigma, 0.0, len);
+}
+
 // One full-detail step over [ta, tb] sampled at the jittered point; returns its optical
 // thickness there (0: no cloud). A
 // dense step (optical thickness above MAX_STEP_OPTICAL_DEPTH at its sample) finds the cloud's
-// edge after clear_from (negative: inside a cloud, no search) and marches from it in thin parts,
+// edge after clear_from (negative: inside a cloud, no search) and marches from it in thin parts
+// (each sampled at the part_offset of the jitter),
 // mixed with the one-sample step by dense_step_weight so the result is continuous in the
 // density. Rust: `Ray::step`.
 fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32, clear_from: f32) -> f32 {
@@ -295,7 +307,7 @@ fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32, clear_from: f32) -
         if i + 1u == MAX_PARTS || cloudy + 1u >= MAX_SUBSTEPS {
             to = tb;
         }
-        let ts = begin + (*ray).jitter * (to - begin);
+        let ts = begin + part_offset((*ray).jitter, medium.extinction, to - begin);
         let part = ray_medium(ray, ts);
         if part.extinction > 0.0 {
             integrate_step(ray, ts, to - begin, part, weight);
