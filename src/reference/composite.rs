@@ -23,7 +23,10 @@
 //! last frame's camera), and clamped to the range of the new frame's 3 × 3 neighbourhood, so what
 //! moved or was uncovered does not leave a trail (the neighbourhood clamp of temporal
 //! anti-aliasing; Karis 2014, "High Quality Temporal Supersampling"). A pixel whose history falls
-//! outside last frame's view takes the new frame alone.
+//! outside last frame's view takes the new frame alone, and so does one whose history saw
+//! another surface ([`history_matches`]: the history keeps where each pixel's ray ended), such
+//! as the sky coming out from behind a near object: the clamp alone cannot tell, since the pixels
+//! the march does not visit are not clamped (below).
 //!
 //! Every frame the camera moves, the history is read between its texels again, and what each
 //! read loses compounds over the `1/α` frames a value lives. So the history is read with a
@@ -259,6 +262,29 @@ pub fn moving_blend(alpha: f64, motion_px: f64) -> f64 {
     unit_weight(unit_weight(alpha) * (1.0 + motion_px))
 }
 
+/// How many times farther one of two ray ends may lie than the other and still be the same
+/// surface for the history ([`history_matches`]): 2. A pixel's ray end and that of the history
+/// texel it reprojects to differ by less between frames wherever they see the same thing (a
+/// camera closing in at 10 m/s on a wall 3 m away changes its distance by 6 % a frame at
+/// 60 Hz); a near object against the sky or distant land differs by orders of magnitude. WGSL
+/// twin: the constant of the same name in `temporal.wgsl`.
+pub const HISTORY_DEPTH_RATIO: f64 = 2.0;
+
+/// Whether a history texel whose ray ended at `history_end_m` (as [`stored_distance`]) may be
+/// kept by a pixel whose ray ends at `end_m`: the two lie within [`HISTORY_DEPTH_RATIO`] of each
+/// other. Where they do not, the pixel shows what last frame's pixel did not (the sky coming out
+/// from behind a near object, or an object moving in front of the sky), and the history there
+/// is another surface's clouds: kept, it would fade out over `1 / temporal_blend` frames as a
+/// trail behind the object. WGSL twin: `history_matches` in `temporal.wgsl`.
+pub fn history_matches(history_end_m: f64, end_m: f64) -> bool {
+    let (near, far) = if history_end_m < end_m {
+        (history_end_m, end_m)
+    } else {
+        (end_m, history_end_m)
+    };
+    far <= HISTORY_DEPTH_RATIO * near
+}
+
 /// How far from a texel centre, in texels along each axis, a history read may land and still be
 /// read as that one texel ([`history_read_snaps`]): 0.001. There the weights the snap drops
 /// add up to less than 1 % ([`lanczos3_weights`]), a fifth of the 5 % image error `MEDIUM` is
@@ -417,6 +443,25 @@ mod tests {
             size: [2, 2],
             values: values.iter().map(|&v| [v]).collect(),
             distances_m: distances.to_vec(),
+        }
+    }
+
+    #[test]
+    fn the_history_of_another_surface_is_not_kept() {
+        // The same surface, a frame later: the sky, a wall approached, the ground.
+        for (history, now) in [
+            (FAR_AWAY, FAR_AWAY),
+            (3.0, 2.8),
+            (800.0, 1_000.0),
+            (0.0, 0.0),
+        ] {
+            assert!(history_matches(history, now), "{history} -> {now}");
+            assert!(history_matches(now, history), "{now} -> {history}");
+        }
+        // A pole 3 m away against the sky or the clouds' land, either way round.
+        for (history, now) in [(3.0, FAR_AWAY), (3.0, 5_000.0), (1_000.0, 2_001.0)] {
+            assert!(!history_matches(history, now), "{history} -> {now}");
+            assert!(!history_matches(now, history), "{now} -> {history}");
         }
     }
 

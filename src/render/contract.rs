@@ -75,6 +75,10 @@ fn rust_constants() -> Vec<(&'static str, Vec<f64>)> {
             "HISTORY_SNAP_TEXELS",
             scalar(composite::HISTORY_SNAP_TEXELS),
         ),
+        (
+            "HISTORY_DEPTH_RATIO",
+            scalar(composite::HISTORY_DEPTH_RATIO),
+        ),
         ("NO_HIT", scalar(NO_HIT)),
         ("PI", scalar(std::f64::consts::PI)),
         ("MAX_HAZE_STEPS", scalar(haze::MAX_HAZE_STEPS.into())),

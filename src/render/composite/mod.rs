@@ -22,8 +22,13 @@
 //! With [`VolumetricClouds::temporal_blend`] below 1 and jitter on (every preset), the march
 //! always writes its targets (at any resolution scale), and `temporal.wgsl` blends them into a
 //! full-resolution history ([`CloudHistory`], two [`HISTORY_FORMAT`] textures that swap each
-//! frame): the new frame at the pixel (upsampled as above) is mixed with the history found where
-//! the pixel's content was last frame, clamped to the new frame's 3 × 3 neighbourhood.
+//! frame, and two [`HISTORY_DISTANCE_FORMAT`] ones of where each pixel's ray ended): the new
+//! frame at the pixel (upsampled as above) is mixed with the history found where the pixel's
+//! content was last frame, clamped to the new frame's 3 × 3 neighbourhood, where that history
+//! saw the surface this pixel's ray ends at
+//! ([`history_matches`](crate::reference::composite::history_matches)); elsewhere (the sky
+//! coming out from behind a near object) the pixel takes the new frame alone, and where only
+//! the filter's reach crosses another surface, the history's 2 × 2 nearest texels.
 //! Reprojection uses the clouds' distance (the second channel of the distance target) and last
 //! frame's camera ([`ViewPose::clip_from_relative`], composed in f64 relative to this frame's
 //! camera); the history is read with a Lanczos-3 filter, and a pixel whose content moved takes
@@ -41,7 +46,9 @@
 //!
 //! The GPU test `temporal_accumulation_converges_and_follows_the_camera` checks that a still
 //! view converges toward the mean of many jittered frames and that a turning camera's history
-//! follows it.
+//! follows it, and `a_turning_camera_leaves_no_trail_behind_a_near_object` that a black pole
+//! held in front of a turning camera stays clear of clouds and leaves no trail in the sky it
+//! uncovers.
 //!
 //! [`VolumetricClouds::temporal_blend`]: super::VolumetricClouds::temporal_blend
 //! [`moving_blend`]: crate::reference::composite::moving_blend
@@ -94,6 +101,10 @@ pub(crate) const LOW_RES_COLOUR_FORMAT: TextureFormat = TextureFormat::Rgba16Flo
 pub(crate) const LOW_RES_DISTANCE_FORMAT: TextureFormat = TextureFormat::Rg32Float;
 /// Format of the temporal accumulation's history of `(L, T)`, at the view's full resolution.
 pub(crate) const HISTORY_FORMAT: TextureFormat = TextureFormat::Rgba16Float;
+/// Format of the history's ray ends, metres (32-bit: the sky's is `FAR_AWAY`): where each
+/// history pixel's ray stopped, so that a pixel keeps only the history of the surface it sees
+/// now (`history_matches`).
+pub(crate) const HISTORY_DISTANCE_FORMAT: TextureFormat = TextureFormat::R32Float;
 /// Format of the light-shaft factors: the factor below the lowest cloud base, the factor above
 /// it, and the distance the ray was stopped at (metres, so 32-bit).
 pub(crate) const SHAFT_FORMAT: TextureFormat = TextureFormat::Rgba32Float;
@@ -333,6 +344,7 @@ fn temporal_layout(label: &'static str, multisampled: bool) -> BindGroupLayoutDe
                 sampler(SamplerBindingType::Filtering),
                 uniform_buffer::<GpuTemporalUniforms>(false),
                 uniform_buffer::<GpuViewGround>(false),
+                texture_2d(TextureSampleType::Float { filterable: false }),
             ),
         ),
     )
@@ -377,7 +389,10 @@ impl SpecializedRenderPipeline for CloudTemporalPipeline {
                 shader: self.shader.clone(),
                 shader_defs: depth_shader_defs(multisampled),
                 entry_point: Some(Cow::Borrowed("temporal_resolve")),
-                targets: vec![Some(ColorTargetState::from(HISTORY_FORMAT))],
+                targets: vec![
+                    Some(ColorTargetState::from(HISTORY_FORMAT)),
+                    Some(ColorTargetState::from(HISTORY_DISTANCE_FORMAT)),
+                ],
             }),
             ..default()
         }
@@ -392,6 +407,10 @@ pub(crate) struct CloudHistory {
     pub read: CachedTexture,
     /// This frame's history, which is also what gets composited.
     pub write: CachedTexture,
+    /// Where the rays of last frame's history ended ([`HISTORY_DISTANCE_FORMAT`]).
+    pub read_distance: CachedTexture,
+    /// Where this frame's rays end.
+    pub write_distance: CachedTexture,
     /// The reprojection and blend.
     pub uniforms: UniformBuffer<GpuTemporalUniforms>,
 }
@@ -492,14 +511,19 @@ pub(crate) fn prepare_composite_targets(
             uniforms.write_buffer(&device, &queue);
             let first = texture("cloud_history_1", HISTORY_FORMAT, full);
             let second = texture("cloud_history_2", HISTORY_FORMAT, full);
-            let (read, write) = if frame.0.is_multiple_of(2) {
-                (second, first)
+            let first_distance = texture("cloud_history_distance_1", HISTORY_DISTANCE_FORMAT, full);
+            let second_distance =
+                texture("cloud_history_distance_2", HISTORY_DISTANCE_FORMAT, full);
+            let ((read, read_distance), (write, write_distance)) = if frame.0.is_multiple_of(2) {
+                ((second, second_distance), (first, first_distance))
             } else {
-                (first, second)
+                ((first, first_distance), (second, second_distance))
             };
             entity_commands.insert(CloudHistory {
                 read,
                 write,
+                read_distance,
+                write_distance,
                 uniforms,
             });
         } else {

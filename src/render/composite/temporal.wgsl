@@ -40,10 +40,56 @@ struct TemporalUniforms {
 @group(0) @binding(5) var history_sampler: sampler;
 @group(0) @binding(6) var<uniform> temporal: TemporalUniforms;
 @group(0) @binding(7) var<uniform> ground: ViewGround;
+// Where the rays of last frame's history ended, m (Rust: `HISTORY_DISTANCE_FORMAT`).
+@group(0) @binding(8) var history_distance: texture_2d<f32>;
+
+// The new history and where this pixel's ray ends, for next frame's `history_matches`.
+struct TemporalOutput {
+    @location(0) colour: vec4<f32>,
+    @location(1) distance: vec4<f32>,
+}
 
 const PI: f32 = 3.141592653589793;
 // Rust: `HISTORY_SNAP_TEXELS` in reference/composite.rs.
 const HISTORY_SNAP_TEXELS: f32 = 1e-3;
+// Rust: `HISTORY_DEPTH_RATIO`.
+const HISTORY_DEPTH_RATIO: f32 = 2.0;
+
+// Rust: `history_matches`. Whether a history texel whose ray ended at history_end may be kept by
+// a pixel whose ray ends at end: the same surface, not a near object and what lies behind it.
+fn history_matches(history_end: f32, end: f32) -> bool {
+    return max(history_end, end) <= HISTORY_DEPTH_RATIO * min(history_end, end);
+}
+
+// How much of the history around uv saw the surface this pixel's ray ends at: 0 when one of
+// the 2 x 2 texels a bilinear read takes did not (the history is another surface's), 1 when
+// those did but one of the 6 x 6 the Lanczos filter reads did not (its lobes would reach across
+// the edge, and a pixel the march does not visit would take a little of the other surface
+// every frame: read the 2 x 2 alone), 2 when all did. A read that snaps to a texel
+// (`sample_history`: a still camera's) reads that texel alone, and only it is checked.
+fn history_surface(uv: vec2<f32>, end: f32) -> u32 {
+    let size = vec2<i32>(textureDimensions(history_distance));
+    let position = uv * vec2<f32>(size) - 0.5;
+    let nearest = round(position);
+    if all(abs(position - nearest) <= vec2<f32>(HISTORY_SNAP_TEXELS)) {
+        let texel = clamp(vec2<i32>(nearest), vec2<i32>(0), size - 1);
+        return select(0u, 2u, history_matches(textureLoad(history_distance, texel, 0).x, end));
+    }
+    let base = vec2<i32>(floor(position));
+    var surface = 2u;
+    for (var j = -2; j <= 3; j++) {
+        for (var i = -2; i <= 3; i++) {
+            let texel = clamp(base + vec2<i32>(i, j), vec2<i32>(0), size - 1);
+            if !history_matches(textureLoad(history_distance, texel, 0).x, end) {
+                if i >= 0 && i <= 1 && j >= 0 && j <= 1 {
+                    return 0u;
+                }
+                surface = 1u;
+            }
+        }
+    }
+    return surface;
+}
 
 // Rust: `moving_blend`. The new frame's weight for a pixel whose content moved `motion_px`
 // full-resolution pixels since last frame.
@@ -134,7 +180,7 @@ fn sample_history(uv: vec2<f32>) -> vec4<f32> {
 }
 
 @fragment
-fn temporal_resolve(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
+fn temporal_resolve(in: FullscreenVertexOutput) -> TemporalOutput {
     // This pixel's ray and where it stops.
     let ndc = uv_to_ndc(in.uv);
     let depth = textureLoad(depth_prepass, vec2<i32>(in.position.xy), 0);
@@ -187,14 +233,23 @@ fn temporal_resolve(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
         proximity = near.x * near.y;
     }
 
-    // Rust: `temporal_upsample_resolve`.
+    // Rust: `temporal_upsample_resolve`; the history only where it saw what this pixel sees
+    // (Rust: `history_matches`).
+    let end = vec4<f32>(distance, 0.0, 0.0, 0.0);
     let previous = reproject(direction, content);
     if temporal.valid == 0u || previous.z == 0.0 {
-        return current;
+        return TemporalOutput(current, end);
     }
-    let old = sample_history(previous.xy);
+    let surface = history_surface(previous.xy, distance);
+    if surface == 0u {
+        return TemporalOutput(current, end);
+    }
+    var old = textureSampleLevel(history, history_sampler, previous.xy, 0.0);
+    if surface == 2u {
+        old = sample_history(previous.xy);
+    }
     let kept = mix(old, clamp(old, lo, hi), proximity);
     let motion = length((previous.xy - in.uv) * view.viewport.zw);
     let alpha = moving_blend(temporal.blend, motion) * proximity;
-    return mix(kept, current, alpha);
+    return TemporalOutput(mix(kept, current, alpha), end);
 }

@@ -723,6 +723,7 @@ fn march_cloud_layers(
                     &temporal.sampler,
                     temporal_uniforms,
                     ground,
+                    &history.read_distance.default_view,
                 )),
             ))
         }
@@ -798,11 +799,17 @@ fn march_cloud_layers(
             },
             Some(temporal_group),
         ) => {
-            let attachment = clear(&history.write.default_view, LinearRgba::NONE);
+            let attachments = [
+                Some(clear(&history.write.default_view, LinearRgba::NONE)),
+                Some(clear(
+                    &history.write_distance.default_view,
+                    LinearRgba::NONE,
+                )),
+            ];
             fullscreen_pass(
                 &mut ctx,
                 "cloud_temporal",
-                &[Some(attachment)],
+                &attachments,
                 resolve,
                 temporal_group,
                 offset,
