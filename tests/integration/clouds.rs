@@ -593,32 +593,17 @@ fn fog_visibility_gives_two_percent_contrast_at_the_visibility_distance() {
     let pitch = 0.5 * fov / size.y as f32;
     let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
     // An unlit black box whose near face is `visibility` metres ahead, in the left half.
-    let target = {
-        let world = rig.app.world();
-        let mesh = world
-            .resource_mut::<Assets<Mesh>>()
-            .add(Cuboid::new(100.0, 20.0, 20.0));
-        let material = world
-            .resource_mut::<Assets<StandardMaterial>>()
-            .add(StandardMaterial {
-                base_color: Color::BLACK,
-                unlit: true,
-                ..default()
-            });
-        world
-            .spawn((
-                Mesh3d(mesh),
-                MeshMaterial3d(material),
-                // 0.7° to 7.8° left of the view's centre; the view is 16° wide. Its centre
-                // on the view's centre line, `pitch` above the horizontal.
-                Transform::from_xyz(
-                    -60.0,
-                    2.0 + (visibility + 10.0) * pitch.tan(),
-                    -(visibility + 10.0),
-                ),
-            ))
-            .id()
-    };
+    // 0.7° to 7.8° left of the view's centre; the view is 16° wide. Its centre on the view's
+    // centre line, `pitch` above the horizontal.
+    let target = spawn_black_box(
+        &mut rig,
+        Vec3::new(100.0, 20.0, 20.0),
+        Transform::from_xyz(
+            -60.0,
+            2.0 + (visibility + 10.0) * pitch.tan(),
+            -(visibility + 10.0),
+        ),
+    );
     rig.set_scene(&Scene {
         name: "fog",
         camera: Transform::from_xyz(0.0, 2.0, 0.0)
@@ -685,25 +670,12 @@ fn haze_visibility_gives_koschmieder_contrast_at_the_visibility_distance() {
         scale_height_m: 1.0e6,
         ..Haze::with_visibility(visibility)
     });
-    {
-        let world = rig.app.world();
-        let mesh = world
-            .resource_mut::<Assets<Mesh>>()
-            .add(Cuboid::new(600.0, 120.0, 20.0));
-        let material = world
-            .resource_mut::<Assets<StandardMaterial>>()
-            .add(StandardMaterial {
-                base_color: Color::BLACK,
-                unlit: true,
-                ..default()
-            });
-        // 0.7° to 7.6° left of the view's centre (the view is 16° wide), near face at V.
-        world.spawn((
-            Mesh3d(mesh),
-            MeshMaterial3d(material),
-            Transform::from_xyz(-360.0, 2.0, -(visibility + 10.0)),
-        ));
-    }
+    // 0.7° to 7.6° left of the view's centre (the view is 16° wide), near face at V.
+    spawn_black_box(
+        &mut rig,
+        Vec3::new(600.0, 120.0, 20.0),
+        Transform::from_xyz(-360.0, 2.0, -(visibility + 10.0)),
+    );
     rig.set_scene(&Scene {
         name: "haze",
         // Half a degree up, so the middle row's rays clear the ground (a level ray from 2 m
@@ -804,6 +776,25 @@ fn haze_veils_distant_clouds_like_the_cpu_reference() {
         hazy < 0.8 * clear,
         "haze lowers the contrast: {hazy} vs {clear}"
     );
+}
+
+/// An unlit black box `size` metres across (x, y, z) in the rig's world, with `placed` (its
+/// transform, its visibility).
+fn spawn_black_box(rig: &mut CloudRig, size: Vec3, placed: impl Bundle) -> Entity {
+    let world = rig.app.world();
+    let mesh = world
+        .resource_mut::<Assets<Mesh>>()
+        .add(Cuboid::from_size(size));
+    let material = world
+        .resource_mut::<Assets<StandardMaterial>>()
+        .add(StandardMaterial {
+            base_color: Color::BLACK,
+            unlit: true,
+            ..default()
+        });
+    world
+        .spawn((Mesh3d(mesh), MeshMaterial3d(material), placed))
+        .id()
 }
 
 /// The showcase's noon cumulus marched in 24 jittered steps, each frame on its own (no
@@ -958,25 +949,7 @@ fn a_turning_camera_leaves_no_trail_behind_a_near_object() {
     // 0.4 m wide, 3 m ahead and 1 m right: about five columns from column 45 on, and every
     // row.
     let pole_in_camera = Transform::from_xyz(1.0, 0.0, -3.0);
-    let (mesh, material) = {
-        let world = rig.app.world();
-        let mesh = world
-            .resource_mut::<Assets<Mesh>>()
-            .add(Cuboid::new(0.4, 60.0, 0.4));
-        let material = world
-            .resource_mut::<Assets<StandardMaterial>>()
-            .add(StandardMaterial {
-                base_color: Color::BLACK,
-                unlit: true,
-                ..default()
-            });
-        (mesh, material)
-    };
-    let pole = rig
-        .app
-        .world()
-        .spawn((Mesh3d(mesh), MeshMaterial3d(material), Visibility::Hidden))
-        .id();
+    let pole = spawn_black_box(&mut rig, Vec3::new(0.4, 60.0, 0.4), Visibility::Hidden);
     rig.set_background(Color::BLACK);
     let frame = |rig: &mut CloudRig, k: u32, with_pole: bool| {
         let world = rig.app.world();

@@ -177,81 +177,17 @@ fn shadow_map_matches_the_cpu_reference_and_clears_at_night() {
     assert!(night.iter().all(|&t| t == 1.0), "the night map is all 1");
 }
 
-/// Bilinear, clamped sample of a `size²` map at `uv` (texel centres at `(i + ½) / size`).
-fn sample_map(map: &[f64], size: u32, uv: Vec2) -> f64 {
-    let n = size as f32;
-    let p = uv * n - 0.5;
-    let base = p.floor();
-    let w = p - base;
-    let at = |x: f32, y: f32| {
-        let xi = x.clamp(0.0, n - 1.0) as u32;
-        let yi = y.clamp(0.0, n - 1.0) as u32;
-        map[(yi * size + xi) as usize]
-    };
-    let (wx, wy) = (f64::from(w.x), f64::from(w.y));
-    let top = at(base.x, base.y) * (1.0 - wx) + at(base.x + 1.0, base.y) * wx;
-    let bottom = at(base.x, base.y + 1.0) * (1.0 - wx) + at(base.x + 1.0, base.y + 1.0) * wx;
-    top * (1.0 - wy) + bottom * wy
-}
-
-#[test]
-fn cloud_shadows_darken_only_the_direct_sun_on_lit_ground() {
-    let size = UVec2::new(48, 48);
-    let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
-    rig.app.world().insert_resource(CloudShadows {
-        enabled: true,
-        resolution: 64,
-        extent_m: 8_000.0,
-        steps: 8,
-    });
-    // No ambient light: the ground's radiance is then the direct sun alone, and the ratio of the
-    // frames with and without shadows is the shadow map's transmittance.
-    rig.app.world().insert_resource(GlobalAmbientLight::NONE);
-    let ground = {
-        let world = rig.app.world();
-        let mesh = world
-            .resource_mut::<Assets<Mesh>>()
-            .add(Plane3d::default().mesh().size(20_000.0, 20_000.0));
-        let material = world
-            .resource_mut::<Assets<StandardMaterial>>()
-            .add(StandardMaterial {
-                base_color: Color::srgb(0.5, 0.5, 0.5),
-                perceptual_roughness: 1.0,
-                reflectance: 0.0,
-                ..default()
-            });
-        world.spawn((Mesh3d(mesh), MeshMaterial3d(material))).id()
-    };
-    // Straight down from below the layer: the view rays meet the ground before any cloud.
-    let scene = Scene {
-        name: "shadow_ground",
-        camera: Transform::from_xyz(0.0, 900.0, 0.0).looking_to(Vec3::NEG_Y, Vec3::NEG_Z),
-        sun_deg: (50.0, 160.0),
-        layers: vec![layer(CloudKind::Cumulus, 0.5)],
-        settings: settings(32),
-    };
-    rig.set_scene(&scene);
-    rig.app.world().entity_mut(rig.camera).insert((
-        Projection::Perspective(PerspectiveProjection {
-            fov: 100f32.to_radians(),
-            ..default()
-        }),
-        Exposure { ev100: 15.0 },
-    ));
-    let (with_shadows, _) = rig.render(4);
-    let (map_size, map) = read_shadow_map(&mut rig);
-    assert!(
-        rig.app
-            .world()
-            .get::<DirectionalLightTexture>(rig.sun)
-            .is_some(),
-        "the sun carries the map"
-    );
-    rig.app.world().resource_mut::<CloudShadows>().enabled = false;
-    let (without, _) = rig.render(3);
-    let _ = ground;
-
-    // Where each pixel's ray meets the ground, and the map texel that covers it.
+/// Per pixel of a view of the ground from the rig's camera: the ratio of its luminance with
+/// cloud shadows to without (`with`, `without`), and the map's transmittance where the pixel's
+/// ray meets the ground (`y = 0`), read bilinearly from the read-back `map`.
+fn ground_shadow_ratios(
+    rig: &mut CloudRig,
+    size: UVec2,
+    with: &[[f32; 3]],
+    without: &[[f32; 3]],
+    map_size: u32,
+    map: &[f64],
+) -> (Vec<f64>, Vec<f64>) {
     let world = rig.app.world();
     let camera = world.get::<Camera>(rig.camera).unwrap();
     let camera_transform = *world.get::<GlobalTransform>(rig.camera).unwrap();
@@ -274,10 +210,115 @@ fn cloud_shadows_darken_only_the_direct_sun_on_lit_ground() {
             let index = (y * size.x + x) as usize;
             let off = luminance(&without[index]);
             assert!(off > 0.0, "the ground is lit");
-            ratios.push(luminance(&with_shadows[index]) / off);
-            expected.push(sample_map(&map, map_size, map_uv));
+            ratios.push(luminance(&with[index]) / off);
+            expected.push(sample_map(map, map_size, map_uv));
         }
     }
+    (ratios, expected)
+}
+
+/// Bilinear, clamped sample of a `size²` map at `uv` (texel centres at `(i + ½) / size`).
+fn sample_map(map: &[f64], size: u32, uv: Vec2) -> f64 {
+    let n = size as f32;
+    let p = uv * n - 0.5;
+    let base = p.floor();
+    let w = p - base;
+    let at = |x: f32, y: f32| {
+        let xi = x.clamp(0.0, n - 1.0) as u32;
+        let yi = y.clamp(0.0, n - 1.0) as u32;
+        map[(yi * size + xi) as usize]
+    };
+    let (wx, wy) = (f64::from(w.x), f64::from(w.y));
+    let top = at(base.x, base.y) * (1.0 - wx) + at(base.x + 1.0, base.y) * wx;
+    let bottom = at(base.x, base.y + 1.0) * (1.0 - wx) + at(base.x + 1.0, base.y + 1.0) * wx;
+    top * (1.0 - wy) + bottom * wy
+}
+
+/// A rig over a grey ground plane, with the cloud shadow map set to `shadows` and no ambient
+/// light: the ground's radiance is then the direct sun alone, and the ratio of the frames with
+/// and without shadows is the shadow map's transmittance.
+fn shadowed_ground_rig(size: UVec2, shadows: CloudShadows) -> CloudRig {
+    let mut rig = CloudRig::new(size, Msaa::Off, small_recipe());
+    rig.app.world().insert_resource(shadows);
+    rig.app.world().insert_resource(GlobalAmbientLight::NONE);
+    let world = rig.app.world();
+    let mesh = world
+        .resource_mut::<Assets<Mesh>>()
+        .add(Plane3d::default().mesh().size(20_000.0, 20_000.0));
+    let material = world
+        .resource_mut::<Assets<StandardMaterial>>()
+        .add(StandardMaterial {
+            base_color: Color::srgb(0.5, 0.5, 0.5),
+            perceptual_roughness: 1.0,
+            reflectance: 0.0,
+            ..default()
+        });
+    world.spawn((Mesh3d(mesh), MeshMaterial3d(material)));
+    rig
+}
+
+/// The ground under a half-covered cumulus layer seen straight down from 900 m (below the layer:
+/// the view rays meet the ground before any cloud) through a `fov_deg` lens, the sun 50° up:
+/// its luminance with and without the cloud shadows, and the map as read back.
+fn shadowed_ground(
+    rig: &mut CloudRig,
+    fov_deg: f32,
+) -> (Vec<[f32; 3]>, Vec<[f32; 3]>, u32, Vec<f64>) {
+    let scene = Scene {
+        name: "shadow_ground",
+        camera: Transform::from_xyz(0.0, 900.0, 0.0).looking_to(Vec3::NEG_Y, Vec3::NEG_Z),
+        sun_deg: (50.0, 160.0),
+        layers: vec![layer(CloudKind::Cumulus, 0.5)],
+        settings: settings(32),
+    };
+    rig.app.world().resource_mut::<CloudShadows>().enabled = true;
+    rig.set_scene(&scene);
+    rig.app.world().entity_mut(rig.camera).insert((
+        Projection::Perspective(PerspectiveProjection {
+            fov: fov_deg.to_radians(),
+            ..default()
+        }),
+        Exposure { ev100: 15.0 },
+    ));
+    let (with_shadows, _) = rig.render(4);
+    let (map_size, map) = read_shadow_map(rig);
+    assert!(
+        rig.app
+            .world()
+            .get::<DirectionalLightTexture>(rig.sun)
+            .is_some(),
+        "the sun carries the map"
+    );
+    rig.app.world().resource_mut::<CloudShadows>().enabled = false;
+    let (without, _) = rig.render(3);
+    (with_shadows, without, map_size, map)
+}
+
+/// [`ground_shadow_ratios`] of a 48 × 48 [`shadowed_ground`] view through a `fov_deg` lens, under
+/// a map of `resolution` texels over 8 km; also saved side by side as `name`.
+fn ground_ratios_and_map(name: &str, resolution: u32, fov_deg: f32) -> (Vec<f64>, Vec<f64>) {
+    let size = UVec2::new(48, 48);
+    let mut rig = shadowed_ground_rig(
+        size,
+        CloudShadows {
+            enabled: true,
+            resolution,
+            extent_m: 8_000.0,
+            steps: 8,
+        },
+    );
+    let (with_shadows, without, map_size, map) = shadowed_ground(&mut rig, fov_deg);
+    let (ratios, expected) =
+        ground_shadow_ratios(&mut rig, size, &with_shadows, &without, map_size, &map);
+    let strip: Vec<[f32; 3]> = ratios.iter().map(|&r| [r as f32; 3]).collect();
+    let map_image: Vec<[f32; 3]> = expected.iter().map(|&t| [t as f32; 3]).collect();
+    save_strip(&output_dir().join(name), size, &[&strip, &map_image]);
+    (ratios, expected)
+}
+
+#[test]
+fn cloud_shadows_darken_only_the_direct_sun_on_lit_ground() {
+    let (ratios, expected) = ground_ratios_and_map("shadow_ground_ratio_vs_map.png", 64, 100.0);
     let n = ratios.len() as f64;
     let mean_error = ratios
         .iter()
@@ -289,17 +330,57 @@ fn cloud_shadows_darken_only_the_direct_sun_on_lit_ground() {
         .iter()
         .fold((f64::MAX, 0.0f64), |(lo, hi), &r| (lo.min(r), hi.max(r)));
     eprintln!("ground/shadow: ratio range {lo:.3}–{hi:.3}, mean |ratio − map| {mean_error:.4}");
-    let strip: Vec<[f32; 3]> = ratios.iter().map(|&r| [r as f32; 3]).collect();
-    let map_image: Vec<[f32; 3]> = expected.iter().map(|&t| [t as f32; 3]).collect();
-    save_strip(
-        &output_dir().join("shadow_ground_ratio_vs_map.png"),
-        size,
-        &[&strip, &map_image],
-    );
     // The view holds shadowed and sunlit ground, and the darkening follows the map texel for
     // texel (f16 target and 8-bit map: a few thousandths).
     assert!(lo < 0.5 && hi > 0.95, "{lo} {hi}");
     assert!(mean_error < 0.02, "mean error {mean_error}");
+}
+
+/// No texel steps in the ground's cloud shadows: with texels of 500 m (the coarsest map, 16
+/// texels over 8 km) seen from 900 m through an 80° lens, a texel spans about 16 pixels, and the
+/// darkening across the texels must be their bilinear blend, a ramp, not the nearest texel's
+/// value, which steps by the whole difference between two texels at their boundary.
+#[test]
+fn ground_shadows_show_no_texel_steps() {
+    let (ratios, expected) =
+        ground_ratios_and_map("shadow_ground_texel_ramp_vs_bilinear.png", 16, 80.0);
+    let w = 48;
+    // The largest step between neighbouring pixels, across and down, of an image.
+    let largest_step = |image: &[f64]| {
+        (0..image.len())
+            .flat_map(|i| {
+                let right = (i % w + 1 < w).then(|| (image[i + 1] - image[i]).abs());
+                let below = (i + w < image.len()).then(|| (image[i + w] - image[i]).abs());
+                [right, below]
+            })
+            .flatten()
+            .fold(0.0, f64::max)
+    };
+    let (lo, hi) = expected
+        .iter()
+        .fold((f64::MAX, 0.0f64), |(lo, hi), &t| (lo.min(t), hi.max(t)));
+    let ground_step = largest_step(&ratios);
+    let blend_step = largest_step(&expected);
+    let worst = ratios
+        .iter()
+        .zip(&expected)
+        .map(|(r, e)| (r - e).abs())
+        .fold(0.0, f64::max);
+    eprintln!(
+        "ground under 500 m texels: map {lo:.3}–{hi:.3} under the view; largest step between \
+         neighbouring pixels {ground_step:.4} on the ground, {blend_step:.4} in the bilinear \
+         blend; largest |ground − blend| {worst:.4}"
+    );
+    // The view spans texels that differ: a step would show.
+    assert!(hi - lo > 0.3, "the map is flat under the view: {lo}–{hi}");
+    // A texel spans about 16 pixels: a ramp climbs a texel's difference over them, a step at
+    // once. So no step between two pixels may exceed a quarter of the texels' range, and each
+    // pixel is the bilinear blend to within the f16 and 8-bit rounding of the map (0.02).
+    assert!(
+        ground_step < 0.25 * (hi - lo),
+        "a step of {ground_step} between two pixels, across a texel range {lo}–{hi}"
+    );
+    assert!(worst < 0.02, "largest |ground − bilinear| {worst}");
 }
 
 /// Light shafts: a pass at a quarter of the resolution marches the haze through the cloud
