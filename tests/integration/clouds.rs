@@ -937,6 +937,7 @@ fn a_turning_camera_leaves_no_trail_behind_a_near_object() {
     scene.settings = VolumetricClouds {
         resolution_scale: VolumetricClouds::MEDIUM.resolution_scale,
         temporal_blend: VolumetricClouds::MEDIUM.temporal_blend,
+        primary_steps: VolumetricClouds::MEDIUM.primary_steps,
         ..scene.settings
     };
     // 60° vertical field of view over 36 rows: 91.6° across 64 columns, 1.43° a column. The
