@@ -295,8 +295,9 @@ pub const HISTORY_SNAP_TEXELS: f64 = 1e-3;
 /// Whether the history read at `position` (texel units, texel centres at integers) is the
 /// nearest texel itself rather than the Lanczos-3 filter around it: within
 /// [`HISTORY_SNAP_TEXELS`] of its centre on both axes. A still camera reads every pixel's
-/// history this way, one texel read instead of the filter's 25. WGSL twin: the start of
-/// `sample_history` in `temporal.wgsl`.
+/// history this way, one texel read instead of the filter's 25, and the history's ray end is
+/// checked at that texel alone. WGSL twin: `history_read_snaps` in `temporal.wgsl`, which
+/// `sample_history` and `history_surface` call.
 pub fn history_read_snaps(position: [f64; 2]) -> bool {
     position
         .iter()

@@ -77,8 +77,9 @@ pub fn part_offset(u: f64, sigma: f64, length: f64) -> f64 {
     (-(u * (-x).exp_m1()).ln_1p() / sigma).clamp(0.0, length)
 }
 
-/// Optical thickness below which [`part_offset`] places the sample uniformly (the weighted and
-/// the uniform offsets differ there by less than `x / 12` of the part).
+/// Optical thickness below which [`part_offset`] places the sample uniformly: the weighted
+/// offset is `u − u (1 − u) x / 2 + O(x²)` of the part, so the two differ there by at most
+/// `x / 8` of it.
 pub const PART_OFFSET_THIN: f64 = 1e-3;
 
 /// Bisections that locate a cloud's edge between the last clear point and a dense step's
@@ -339,11 +340,11 @@ impl Ray<'_> {
     /// `None` inside a cloud. The edge is then searched for between it and
     /// this step's sample by [`EDGE_SEARCH_STEPS`] bisections. From the edge (or from `ta`
     /// inside a cloud) the march takes parts of optical thickness [`MAX_STEP_OPTICAL_DEPTH`] at
-    /// the step's sample, each sampled at the [`part_offset`] of the jitter, at most [`MAX_SUBSTEPS`] (the last
-    /// reaching `tb`), until the transmittance cut-off.
+    /// the step's sample, each sampled at the [`part_offset`] of the jitter, at most
+    /// [`MAX_SUBSTEPS`] (the last reaching `tb`), until the transmittance cut-off.
     ///
-    /// Between `x` = 1 and 2 times [`MAX_STEP_OPTICAL_DEPTH`] the result is the one-sample step and
-    /// the parts mixed in proportion ([`dense_step_weight`]), so it is continuous in the
+    /// Between `x` = [`MAX_STEP_OPTICAL_DEPTH`] and twice that the result is the one-sample
+    /// step and the parts mixed in proportion ([`dense_step_weight`]), so it is continuous in the
     /// density: a step whose density lies at the threshold gives the same light whichever side
     /// of it rounding puts the density (the GPU's 8-bit noise against the reference's f64).
     fn step(&mut self, ta: f64, tb: f64, clear_from: Option<f64>) -> f64 {
@@ -378,8 +379,8 @@ impl Ray<'_> {
             }
             from = lo;
         }
-        let length_sigma = medium.extinction;
-        let length = MAX_STEP_OPTICAL_DEPTH / length_sigma;
+        let step_extinction = medium.extinction;
+        let length = MAX_STEP_OPTICAL_DEPTH / step_extinction;
         let mut cloudy = 0;
         for i in 0..MAX_PARTS {
             if !is_positive(tb - from) {
@@ -392,7 +393,7 @@ impl Ray<'_> {
             } else {
                 (from + length).min(tb)
             };
-            let t = from + part_offset(self.jitter, length_sigma, to - from);
+            let t = from + part_offset(self.jitter, step_extinction, to - from);
             let medium = self.medium(t);
             if is_positive(medium.extinction) {
                 self.integrate(t, to - from, &medium);

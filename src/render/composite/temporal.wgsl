@@ -55,6 +55,12 @@ const HISTORY_SNAP_TEXELS: f32 = 1e-3;
 // Rust: `HISTORY_DEPTH_RATIO`.
 const HISTORY_DEPTH_RATIO: f32 = 2.0;
 
+// Rust: `history_read_snaps`. Whether a history read at `position` (texel units, centres at
+// integers) is the nearest texel itself rather than the Lanczos filter around it.
+fn history_read_snaps(position: vec2<f32>) -> bool {
+    return all(abs(position - round(position)) <= vec2<f32>(HISTORY_SNAP_TEXELS));
+}
+
 // Rust: `history_matches`. Whether a history texel whose ray ended at history_end may be kept by
 // a pixel whose ray ends at end: the same surface, not a near object and what lies behind it.
 fn history_matches(history_end: f32, end: f32) -> bool {
@@ -70,9 +76,8 @@ fn history_matches(history_end: f32, end: f32) -> bool {
 fn history_surface(uv: vec2<f32>, end: f32) -> u32 {
     let size = vec2<i32>(textureDimensions(history_distance));
     let position = uv * vec2<f32>(size) - 0.5;
-    let nearest = round(position);
-    if all(abs(position - nearest) <= vec2<f32>(HISTORY_SNAP_TEXELS)) {
-        let texel = clamp(vec2<i32>(nearest), vec2<i32>(0), size - 1);
+    if history_read_snaps(position) {
+        let texel = clamp(vec2<i32>(round(position)), vec2<i32>(0), size - 1);
         return select(0u, 2u, history_matches(textureLoad(history_distance, texel, 0).x, end));
     }
     let base = vec2<i32>(floor(position));
@@ -147,10 +152,10 @@ fn lanczos3_weights(fraction: f32) -> array<f32, 6> {
 fn sample_history(uv: vec2<f32>) -> vec4<f32> {
     let size = vec2<f32>(textureDimensions(history));
     let position = uv * size - 0.5;
-    // On a texel centre the filter is that texel (Rust: `history_read_snaps`): one read, where
-    // a still camera's history always lands.
+    // On a texel centre the filter is that texel: one read, where a still camera's history
+    // always lands.
     let nearest = round(position);
-    if all(abs(position - nearest) <= vec2<f32>(HISTORY_SNAP_TEXELS)) {
+    if history_read_snaps(position) {
         let texel = clamp(vec2<i32>(nearest), vec2<i32>(0), vec2<i32>(size) - 1);
         return textureLoad(history, texel, 0);
     }
