@@ -177,9 +177,18 @@ fn shadow_map_matches_the_cpu_reference_and_clears_at_night() {
     assert!(night.iter().all(|&t| t == 1.0), "the night map is all 1");
 }
 
-/// Per pixel of a view of the ground from the rig's camera: the ratio of its luminance with
-/// cloud shadows to without (`with`, `without`), and the map's transmittance where the pixel's
-/// ray meets the ground (`y = 0`), read bilinearly from the read-back `map`.
+/// A view of the shadowed ground, per pixel ([`ground_shadow_ratios`]).
+struct GroundShadows {
+    /// The ratio of the pixel's luminance with cloud shadows to without.
+    ratios: Vec<f64>,
+    /// The map's transmittance where the pixel's ray meets the ground, read bilinearly.
+    bilinear: Vec<f64>,
+    /// The same, from the nearest texel: what a map read without filtering would show.
+    nearest: Vec<f64>,
+}
+
+/// The [`GroundShadows`] of a view of the ground (`y = 0`) from the rig's camera, from its
+/// frames with and without cloud shadows (`with`, `without`) and the read-back `map`.
 fn ground_shadow_ratios(
     rig: &mut CloudRig,
     size: UVec2,
@@ -187,7 +196,7 @@ fn ground_shadow_ratios(
     without: &[[f32; 3]],
     map_size: u32,
     map: &[f64],
-) -> (Vec<f64>, Vec<f64>) {
+) -> GroundShadows {
     let world = rig.app.world();
     let camera = world.get::<Camera>(rig.camera).unwrap();
     let camera_transform = *world.get::<GlobalTransform>(rig.camera).unwrap();
@@ -198,7 +207,7 @@ fn ground_shadow_ratios(
         .affine()
         .inverse();
     let origin = camera_transform.translation();
-    let (mut ratios, mut expected) = (Vec::new(), Vec::new());
+    let (mut ratios, mut bilinear, mut nearest) = (Vec::new(), Vec::new(), Vec::new());
     for y in 0..size.y {
         for x in 0..size.x {
             let uv = (Vec2::new(x as f32, y as f32) + 0.5) / size.as_vec2();
@@ -211,10 +220,19 @@ fn ground_shadow_ratios(
             let off = luminance(&without[index]);
             assert!(off > 0.0, "the ground is lit");
             ratios.push(luminance(&with[index]) / off);
-            expected.push(sample_map(map, map_size, map_uv));
+            bilinear.push(sample_map(map, map_size, map_uv));
+            let texel = (map_uv * map_size as f32)
+                .floor()
+                .clamp(Vec2::ZERO, Vec2::splat(map_size as f32 - 1.0))
+                .as_uvec2();
+            nearest.push(map[(texel.y * map_size + texel.x) as usize]);
         }
     }
-    (ratios, expected)
+    GroundShadows {
+        ratios,
+        bilinear,
+        nearest,
+    }
 }
 
 /// Bilinear, clamped sample of a `size²` map at `uv` (texel centres at `(i + ½) / size`).
@@ -296,7 +314,7 @@ fn shadowed_ground(
 
 /// [`ground_shadow_ratios`] of a 48 × 48 [`shadowed_ground`] view through a `fov_deg` lens, under
 /// a map of `resolution` texels over 8 km; also saved side by side as `name`.
-fn ground_ratios_and_map(name: &str, resolution: u32, fov_deg: f32) -> (Vec<f64>, Vec<f64>) {
+fn ground_ratios_and_map(name: &str, resolution: u32, fov_deg: f32) -> GroundShadows {
     let size = UVec2::new(48, 48);
     let mut rig = shadowed_ground_rig(
         size,
@@ -308,17 +326,23 @@ fn ground_ratios_and_map(name: &str, resolution: u32, fov_deg: f32) -> (Vec<f64>
         },
     );
     let (with_shadows, without, map_size, map) = shadowed_ground(&mut rig, fov_deg);
-    let (ratios, expected) =
-        ground_shadow_ratios(&mut rig, size, &with_shadows, &without, map_size, &map);
-    let strip: Vec<[f32; 3]> = ratios.iter().map(|&r| [r as f32; 3]).collect();
-    let map_image: Vec<[f32; 3]> = expected.iter().map(|&t| [t as f32; 3]).collect();
-    save_strip(&output_dir().join(name), size, &[&strip, &map_image]);
-    (ratios, expected)
+    let ground = ground_shadow_ratios(&mut rig, size, &with_shadows, &without, map_size, &map);
+    let grey = |image: &[f64]| -> Vec<[f32; 3]> { image.iter().map(|&v| [v as f32; 3]).collect() };
+    save_strip(
+        &output_dir().join(name),
+        size,
+        &[&grey(&ground.ratios), &grey(&ground.bilinear)],
+    );
+    ground
 }
 
 #[test]
 fn cloud_shadows_darken_only_the_direct_sun_on_lit_ground() {
-    let (ratios, expected) = ground_ratios_and_map("shadow_ground_ratio_vs_map.png", 64, 100.0);
+    let GroundShadows {
+        ratios,
+        bilinear: expected,
+        ..
+    } = ground_ratios_and_map("shadow_ground_ratio_vs_map.png", 64, 100.0);
     let n = ratios.len() as f64;
     let mean_error = ratios
         .iter()
@@ -342,8 +366,7 @@ fn cloud_shadows_darken_only_the_direct_sun_on_lit_ground() {
 /// value, which steps by the whole difference between two texels at their boundary.
 #[test]
 fn ground_shadows_show_no_texel_steps() {
-    let (ratios, expected) =
-        ground_ratios_and_map("shadow_ground_texel_ramp_vs_bilinear.png", 16, 80.0);
+    let ground = ground_ratios_and_map("shadow_ground_texel_ramp_vs_bilinear.png", 16, 80.0);
     let w = 48;
     // The largest step between neighbouring pixels, across and down, of an image.
     let largest_step = |image: &[f64]| {
@@ -356,31 +379,36 @@ fn ground_shadows_show_no_texel_steps() {
             .flatten()
             .fold(0.0, f64::max)
     };
-    let (lo, hi) = expected
+    let ground_step = largest_step(&ground.ratios);
+    let blend_step = largest_step(&ground.bilinear);
+    let texel_step = largest_step(&ground.nearest);
+    let worst = ground
+        .ratios
         .iter()
-        .fold((f64::MAX, 0.0f64), |(lo, hi), &t| (lo.min(t), hi.max(t)));
-    let ground_step = largest_step(&ratios);
-    let blend_step = largest_step(&expected);
-    let worst = ratios
-        .iter()
-        .zip(&expected)
+        .zip(&ground.bilinear)
         .map(|(r, e)| (r - e).abs())
         .fold(0.0, f64::max);
     eprintln!(
-        "ground under 500 m texels: map {lo:.3}–{hi:.3} under the view; largest step between \
-         neighbouring pixels {ground_step:.4} on the ground, {blend_step:.4} in the bilinear \
-         blend; largest |ground − blend| {worst:.4}"
+        "ground under 500 m texels: largest step between neighbouring pixels {ground_step:.4} \
+         on the ground, {blend_step:.4} in the bilinear blend, {texel_step:.4} from the nearest \
+         texels; largest |ground − blend| {worst:.4}"
     );
-    // The view spans texels that differ: a step would show.
-    assert!(hi - lo > 0.3, "the map is flat under the view: {lo}–{hi}");
-    // A texel spans about 16 pixels: a ramp climbs a texel's difference over them, a step at
-    // once. So no step between two pixels may exceed a quarter of the texels' range, and each
-    // pixel is the bilinear blend to within the f16 and 8-bit rounding of the map (0.02).
+    // Each pixel is the bilinear blend to within the f16 and 8-bit rounding of the map (0.02).
+    let rounding = 0.02;
+    assert!(worst < rounding, "largest |ground − bilinear| {worst}");
+    // The view spans texels that differ by more than that rounding could hide, several times.
     assert!(
-        ground_step < 0.25 * (hi - lo),
-        "a step of {ground_step} between two pixels, across a texel range {lo}–{hi}"
+        texel_step > 4.0 * rounding,
+        "the map is too flat under the view for a step to show: {texel_step}"
     );
-    assert!(worst < 0.02, "largest |ground − bilinear| {worst}");
+    // A bilinear blend climbs a texel's difference over the texel's width on the ground, about
+    // 16 pixels (more along the sun, whose 50° elevation stretches the texels 1.3 times), so
+    // no step between two pixels exceeds a twelfth of the nearest texels' step; a quarter
+    // leaves room for the rounding. Unfiltered, the ground would step by all of it.
+    assert!(
+        ground_step < 0.25 * texel_step,
+        "a step of {ground_step} between two pixels, against the texels' {texel_step}"
+    );
 }
 
 /// Light shafts: a pass at a quarter of the resolution marches the haze through the cloud
