@@ -497,7 +497,6 @@ mod tests {
             .world_mut()
             .spawn(CloudLayer {
                 rain_mm_per_h: 10.0,
-                weather_driven: false,
                 ..CloudLayer::new(crate::layers::CloudKind::Stratus)
             })
             .id();

@@ -215,7 +215,6 @@ mod tests {
             density: 0.002,
             shape_noise: 0.0,
             profile: DensityProfile::new([(0.0, 1.0), (1.0, 1.0)], ProfileInterpolation::Linear),
-            weather_driven: false,
             ..CloudLayer::new(CloudKind::Stratus)
         });
         app.world_mut().spawn((

@@ -469,7 +469,6 @@ fn measure_effects(rig: &mut CloudRig, frames: u32) -> String {
     let mut fog = LayerSlot::Fog.initial_layer();
     fog.coverage = 1.0;
     fog.density = 3.912 / 1_000.0;
-    fog.weather_driven = false;
     foggy.layers.push(fog);
     let with = time(rig, &foggy, false, clear.clone());
     let without = time(rig, &base, false, clear.clone());

@@ -8,7 +8,7 @@ use bevy::{
 };
 use bevy_cloudscape::{
     layers::{DEFAULT_TRANSITION_S, HazeTransition, LayerTransition},
-    weather::{Variable, WeatherMapping, preset::follow_forecast},
+    weather::{Variable, WeatherMapping},
 };
 use bevy_egui::{
     EguiContext, EguiContexts, EguiPlugin, EguiPrimaryContextPass, PrimaryEguiContext, egui,
@@ -293,12 +293,23 @@ fn switch_mode(panel: &mut PanelState, mode: Mode, current: &CurrentWeather) {
     }
 }
 
+/// A weather layer the sliders drive in play mode: its `LayerSlot` is taken off (so the forecast
+/// leaves it alone) and kept here until live mode or a preset gives it back.
+#[derive(Component)]
+struct PlaySlot(LayerSlot);
+
 /// Applies the panel's mode, preset and transition time: live mode hands the layers back to the
-/// forecast, a preset becomes the `ActivePreset`, and every transition takes the panel's time.
+/// forecast, a preset becomes the `ActivePreset`, the sliders take the layers' slots off, and
+/// every transition takes the panel's time.
 fn apply_panel(
     panel: Res<PanelState>,
     mut commands: Commands,
-    mut transitions: Query<&mut LayerTransition, With<LayerSlot>>,
+    mut transitions: Query<(
+        Entity,
+        &mut LayerTransition,
+        Option<&LayerSlot>,
+        Option<&PlaySlot>,
+    )>,
     mut haze: ResMut<HazeTransition>,
     mut presets: ResMut<Assets<CloudPreset>>,
     mut handles: Local<Vec<Handle<CloudPreset>>>,
@@ -309,20 +320,33 @@ fn apply_panel(
     if handles.is_empty() {
         *handles = CloudPreset::ALL.map(|p| presets.add(p)).to_vec();
     }
-    for mut transition in &mut transitions {
+    let sliders = panel.mode == Mode::Play && panel.preset.is_none();
+    for (entity, mut transition, slot, play) in &mut transitions {
         transition.duration_s = panel.transition_s;
+        match (sliders, slot, play) {
+            (true, Some(&slot), _) => {
+                commands
+                    .entity(entity)
+                    .remove::<LayerSlot>()
+                    .insert(PlaySlot(slot));
+            }
+            (false, _, Some(&PlaySlot(slot))) => {
+                commands.entity(entity).remove::<PlaySlot>().insert(slot);
+            }
+            _ => {}
+        }
     }
     haze.duration_s = panel.transition_s;
+    if let Some(target) = haze.target.as_mut() {
+        // The sliders set the haze by hand; the forecast and the presets set it otherwise.
+        target.weather_driven = !sliders;
+    }
     match (panel.mode, panel.preset) {
         (Mode::Play, Some(i)) => commands.insert_resource(ActivePreset {
             preset: handles[i].clone(),
             duration_s: panel.transition_s,
         }),
-        (Mode::Play, None) => commands.remove_resource::<ActivePreset>(),
-        (Mode::Live, _) => {
-            commands.remove_resource::<ActivePreset>();
-            follow_forecast(transitions.iter_mut(), Some(&mut haze));
-        }
+        _ => commands.remove_resource::<ActivePreset>(),
     }
 }
 
@@ -430,7 +454,7 @@ fn drive_play_layers(
     panel: Res<PanelState>,
     clock: Res<SceneClock>,
     mapping: Option<Res<WeatherMapping>>,
-    mut layers: Query<(&LayerSlot, &mut LayerTransition)>,
+    mut layers: Query<(&PlaySlot, &mut LayerTransition)>,
     mut haze: ResMut<HazeTransition>,
 ) {
     if panel.mode != Mode::Play || panel.preset.is_some() {
@@ -438,14 +462,9 @@ fn drive_play_layers(
     }
     let rules = mapping.map_or_else(WeatherMapping::default, |m| *m);
     let mapped = rules.map(&panel.play.to_state(clock.instant()), BERN_GROUND_M);
-    for (slot, mut transition) in &mut layers {
-        // `apply` leaves layers that are not weather-driven alone: map a driven copy.
-        let mut updated = CloudLayer {
-            weather_driven: true,
-            ..transition.target.clone()
-        };
+    for (PlaySlot(slot), mut transition) in &mut layers {
+        let mut updated = transition.target.clone();
         mapped.apply(*slot, &mut updated);
-        updated.weather_driven = false;
         if updated != transition.target {
             transition.target = updated;
         }
@@ -496,7 +515,7 @@ fn inspector_window(world: &mut World) {
             egui::ScrollArea::vertical().show(ui, |ui| {
                 ui.label(
                     "The weather slots move to their transition's target: edit the target \
-                     (untick its weather_driven to keep edits from the forecast).",
+                     (the forecast, a preset or the play sliders write it too).",
                 );
                 for (entity, name) in &layers {
                     egui::CollapsingHeader::new(name)

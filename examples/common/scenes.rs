@@ -75,7 +75,6 @@ pub struct Scene {
 pub fn layer(kind: CloudKind, coverage: f32) -> CloudLayer {
     CloudLayer {
         coverage,
-        weather_driven: false,
         ..CloudLayer::new(kind)
     }
 }

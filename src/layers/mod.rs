@@ -28,10 +28,12 @@
 //!   height".
 //! - **Weather**: [`CloudLayer::precipitation`] darkens the cloud (0–1) and
 //!   [`CloudLayer::rain_mm_per_h`] is the rain falling from it.
-//! - **Who drives it**: a layer with a [`LayerSlot`](crate::weather::LayerSlot) whose
-//!   [`CloudLayer::weather_driven`] is true is rewritten from the forecast by the weather mapping
-//!   ([`weather::mapping`](crate::weather::mapping)). Any other layer is left alone, and every
-//!   value is the user's ("play" mode for a slotted layer).
+//! - **Who drives it**: a layer with a [`LayerSlot`](crate::weather::LayerSlot) component is
+//!   rewritten from the forecast by the weather mapping
+//!   ([`weather::mapping`](crate::weather::mapping)), or from the
+//!   [`ActivePreset`](crate::weather::preset::ActivePreset) while there is one. Any other layer is
+//!   left alone, and every value is the user's: remove a layer's slot to take it over by hand
+//!   ("play" mode), insert it again to give it back to the forecast.
 //! - **How it changes**: a layer with a [`LayerTransition`] moves smoothly to the transition's
 //!   target over its duration; the mapping and the presets write that target. Picking a new
 //!   target halfway keeps every value and its rate continuous.
@@ -105,8 +107,8 @@ pub use transition::{DEFAULT_TRANSITION_S, HazeTransition, LayerTransition};
 ///
 /// Start from [`CloudLayer::new`] for a kind's defaults, then change fields. The weather mapping
 /// ([`weather::mapping`](crate::weather::mapping)) rewrites only layers with a
-/// [`LayerSlot`](crate::weather::LayerSlot) whose [`CloudLayer::weather_driven`] is true; a
-/// layer you spawn without a slot keeps your values.
+/// [`LayerSlot`](crate::weather::LayerSlot); a layer you spawn without a slot keeps your
+/// values.
 ///
 /// `Default` is [`CloudLayer::new`]`(`[`CloudKind::Cumulus`]`)`.
 #[derive(Component, Clone, Debug, PartialEq, Reflect)]
@@ -155,10 +157,6 @@ pub struct CloudLayer {
     pub precipitation: f32,
     /// Rain (or snow, as water) falling from the layer's base, mm/h (≥ 0). Default 0.
     pub rain_mm_per_h: f32,
-    /// Whether the weather mapping sets this layer from the forecast, when the layer has a
-    /// [`LayerSlot`](crate::weather::LayerSlot) (a layer without one is never touched by the
-    /// forecast). When false the mapping leaves every field alone ("play" mode). Default true.
-    pub weather_driven: bool,
     /// The layer's coverage toward distant places, so the weather can change across the view
     /// (Thomann 2021 §4.4–4.5: Bern's forecast in the foreground, Solothurn's toward Solothurn).
     /// [`CloudLayer::coverage`] holds near the first place of each entry and each entry's
@@ -206,7 +204,7 @@ impl Default for CloudLayer {
 
 impl CloudLayer {
     /// A layer of `kind` with the kind's defaults ([`CloudKind::defaults`],
-    /// [`DensityProfile::for_kind`]), no wind, no precipitation, and weather-driven.
+    /// [`DensityProfile::for_kind`]), no wind and no precipitation.
     #[must_use]
     pub fn new(kind: CloudKind) -> Self {
         let defaults = kind.defaults();
@@ -224,7 +222,6 @@ impl CloudLayer {
             shape_noise: 1.0,
             precipitation: 0.0,
             rain_mm_per_h: 0.0,
-            weather_driven: true,
             far_coverage: Vec::new(),
         }
     }
@@ -361,7 +358,6 @@ mod tests {
                 layer,
                 "{kind}: defaults are already clean"
             );
-            assert!(layer.weather_driven);
             assert_eq!(
                 (layer.precipitation, layer.rain_mm_per_h, layer.wind_m_s),
                 (0.0, 0.0, [0.0, 0.0])
@@ -651,7 +647,6 @@ mod tests {
         layer.rain_mm_per_h = -1.0;
         layer.weather_map_scale_m = 0.0;
         layer.coverage_height = 3.0;
-        layer.weather_driven = false;
         let clean = layer.sanitized();
         assert_eq!(clean.coverage, 1.0);
         assert_eq!(clean.precipitation, 0.0);
@@ -661,7 +656,6 @@ mod tests {
         assert_eq!(clean.wind_m_s, [0.0, 3.0]);
         assert_eq!(clean.rain_mm_per_h, 0.0);
         assert_eq!(clean.weather_map_scale_m, d.weather_map_scale_m);
-        assert!(!clean.weather_driven, "the play-mode flag is the user's");
         assert_eq!(clean.kind, kind);
 
         let mut nan = CloudLayer::new(kind);

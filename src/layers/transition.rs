@@ -36,9 +36,8 @@ const VALUES: usize = SCALARS + MAX_PROFILE_POINTS;
 /// its inverse), wind, skew, shape noise, precipitation, rain, the far coverages and the density
 /// profile toward the target as the [module docs](self) describe. A change of kind morphs the
 /// profile and the kind's numbers, sampled at the heights the renderer samples, so it never
-/// jumps; the layer takes the target's [`CloudLayer::kind`] and
-/// [`CloudLayer::weather_driven`] at once (the renderer reads neither). When every value has
-/// arrived, the layer becomes an exact copy of the target.
+/// jumps; the layer takes the target's [`CloudLayer::kind`] at once (the renderer reads only
+/// the numbers). When every value has arrived, the layer becomes an exact copy of the target.
 ///
 /// While a transition is present it owns the layer: edits to the `CloudLayer` itself are
 /// overwritten on the next update. The first weather a slotted layer receives is a cut, so a
@@ -295,7 +294,6 @@ fn set_values(
 ) {
     let unit = |x: f32| x.clamp(0.0, 1.0);
     layer.kind = target.kind;
-    layer.weather_driven = target.weather_driven;
     layer.coverage = unit(v[0]);
     layer.density = v[1].max(0.0);
     layer.base_m = v[2];
@@ -328,9 +326,9 @@ impl CloudLayer {
     /// The layer a fraction `t` (0–1, clamped) of the way from `self` to `other`: every value
     /// [`LayerTransition`] moves is interpolated linearly (the weather-map period through its
     /// inverse, the profile at the renderer's sample heights), far coverages too when both
-    /// describe the same places (else `other`'s); kind and `weather_driven` are `self`'s below
-    /// one half and `other`'s from there. `t = 0` gives `self` and `t = 1` gives `other`
-    /// exactly, so a sequence of blends between consecutive states is continuous.
+    /// describe the same places (else `other`'s); the kind is `self`'s below one half and
+    /// `other`'s from there. `t = 0` gives `self` and `t = 1` gives `other` exactly, so a
+    /// sequence of blends between consecutive states is continuous.
     #[must_use]
     pub fn lerp(&self, other: &Self, t: f32) -> Self {
         let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };

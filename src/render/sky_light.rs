@@ -238,7 +238,6 @@ mod tests {
             density: tau / 1_000.0,
             shape_noise: 0.0,
             profile: DensityProfile::new([(0.0, 1.0), (1.0, 1.0)], ProfileInterpolation::Linear),
-            weather_driven: false,
             ..CloudLayer::new(CloudKind::Stratus)
         }
     }

@@ -810,7 +810,6 @@ mod tests {
         let layer = CloudLayer {
             coverage: 1.0,
             rain_mm_per_h: 1.0,
-            weather_driven: false,
             ..CloudLayer::new(CloudKind::Stratus)
         };
         let camera = GlobalTransform::from_xyz(0.0, 2.0, 0.0);

@@ -125,7 +125,6 @@ impl PresetLayer {
         layer.wind_m_s = self.wind_m_s.unwrap_or(current.wind_m_s);
         layer.precipitation = self.precipitation.unwrap_or(0.0);
         layer.rain_mm_per_h = self.rain_mm_per_h.unwrap_or(0.0);
-        layer.weather_driven = false;
         layer.sanitized()
     }
 }
@@ -240,19 +239,16 @@ impl CloudPreset {
                 coverage: 0.0,
                 precipitation: 0.0,
                 rain_mm_per_h: 0.0,
-                weather_driven: false,
                 ..current.clone()
             },
         }
     }
 
-    /// The haze this preset moves `current` to: its visibility (∞ for `None`), the rest kept,
-    /// no longer weather-driven.
+    /// The haze this preset moves `current` to: its visibility (∞ for `None`), the rest kept.
     #[must_use]
     pub fn haze(&self, current: &Haze) -> Haze {
         Haze {
             visibility_m: self.visibility_m.unwrap_or(f32::INFINITY),
-            weather_driven: false,
             ..current.clone()
         }
     }
@@ -490,8 +486,8 @@ impl AssetLoader for PresetLoader {
 /// [`LayerSlot`] and a [`LayerTransition`] move to the preset's layers, and the haze to its
 /// visibility, over [`ActivePreset::duration_s`]; the forecast no longer drives them. Changing
 /// the handle, the duration, or the file itself (hot reload) starts a new transition from
-/// wherever the layers are. To give the sky back to the forecast, remove the resource and set
-/// `weather_driven` on the targets again ([`follow_forecast`]).
+/// wherever the layers are. To give the sky back to the forecast, remove the resource: the
+/// weather mapping moves the layers and the haze back over their durations.
 #[derive(Resource, Clone, Debug)]
 pub struct ActivePreset {
     /// The preset: a file from the asset server, or a constant added with
@@ -510,20 +506,6 @@ impl ActivePreset {
             preset,
             duration_s: crate::layers::DEFAULT_TRANSITION_S,
         }
-    }
-}
-
-/// Hands the slotted layers and the haze back to the forecast: their targets become
-/// weather-driven again, and the next weather update moves them (over their durations).
-pub fn follow_forecast(
-    transitions: impl IntoIterator<Item = impl std::ops::DerefMut<Target = LayerTransition>>,
-    haze: Option<&mut HazeTransition>,
-) {
-    for mut transition in transitions {
-        transition.target.weather_driven = true;
-    }
-    if let Some(target) = haze.and_then(|h| h.target.as_mut()) {
-        target.weather_driven = true;
     }
 }
 
@@ -605,7 +587,6 @@ mod tests {
                 let made = layer.layer(&CloudLayer::default());
                 assert_eq!(made, made.sanitized(), "{}", preset.name);
                 assert!(made.is_visible(), "{}: {:?}", preset.name, layer.slot);
-                assert!(!made.weather_driven);
             }
             for other in &CloudPreset::ALL[..i] {
                 assert_ne!(preset.layers, other.layers);

@@ -60,7 +60,6 @@ fn slab(extinction: f32) -> CloudLayer {
         density: extinction,
         shape_noise: 0.0,
         profile: DensityProfile::uniform(),
-        weather_driven: false,
         ..CloudLayer::new(CloudKind::Stratus)
     }
 }

@@ -32,14 +32,10 @@ impl MappedWeather {
     }
 
     /// Writes `layer` as the forecast says a layer in `slot` should be (the rules in the
-    /// [module docs](super)). A layer whose [`CloudLayer::weather_driven`] is false is left
-    /// exactly as it is. A weather-driven layer is cleaned with [`CloudLayer::sanitize`] at
-    /// the end, so no NaN reaches it, even from a hand-set NaN field. It allocates only when the kind changes (the
-    /// new kind's profile).
+    /// [module docs](super)). The layer is cleaned with [`CloudLayer::sanitize`] at the end,
+    /// so no NaN reaches it, even from a hand-set NaN field. It allocates only when the kind
+    /// changes (the new kind's profile).
     pub fn apply(&self, slot: LayerSlot, layer: &mut CloudLayer) {
-        if !layer.weather_driven {
-            return;
-        }
         match slot {
             LayerSlot::Fog => self.apply_fog(layer),
             LayerSlot::Low => self.apply_low(layer),

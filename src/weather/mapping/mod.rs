@@ -8,9 +8,9 @@
 //!
 //! [`WeatherMapping::map`] digests a state once into a [`MappedWeather`].
 //! [`MappedWeather::apply`] then writes any layer given its slot, so a game can keep one entity
-//! per slot (or several, or none). A layer whose [`CloudLayer::weather_driven`] is false is left
-//! untouched, and its values are the user's ("play" mode). [`map_weather`] and
-//! [`layers_for_weather`] are one-call shortcuts.
+//! per slot (or several, or none). In the ECS, a [`CloudLayer`] entity with a [`LayerSlot`]
+//! component follows the forecast; without one it is left untouched and its values are the
+//! user's ("play" mode). [`map_weather`] and [`layers_for_weather`] are one-call shortcuts.
 //!
 //! # The mapping table
 //!
@@ -63,7 +63,6 @@
 //!
 //! [`WeatherState`]: crate::weather::WeatherState
 //! [`CloudLayer`]: crate::layers::CloudLayer
-//! [`CloudLayer::weather_driven`]: crate::layers::CloudLayer::weather_driven
 //! [`CloudKind::defaults`]: crate::layers::CloudKind::defaults
 
 mod band;

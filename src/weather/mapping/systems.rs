@@ -7,9 +7,12 @@ use super::inputs::Inputs;
 use super::{LayerSlot, MappedWeather, WeatherMapping};
 use crate::layers::{CloudLayer, FarCoverage, Haze, HazeTransition, LayerTransition};
 use crate::scene::UtcInstant;
+use crate::weather::preset::ActivePreset;
 
 /// Writes the near place's [`CurrentWeather`](crate::weather::CurrentWeather) onto every
-/// weather-driven [`CloudLayer`] with a [`LayerSlot`], when the weather changed. A layer with a
+/// [`CloudLayer`] with a [`LayerSlot`], when the weather changed, a slot was inserted or a
+/// preset ended. While an [`ActivePreset`] exists the preset drives the slots and the haze, and
+/// this writes nothing. A layer with a
 /// [`LayerTransition`] gets the weather as its target (the first one as a cut, so a scene starts
 /// with its clouds); any other is written directly. Between two forecast steps the layers mapped
 /// at each step are blended ([`CloudLayer::lerp`]), so no threshold or weather code of the
@@ -27,14 +30,27 @@ pub(crate) fn map_weather_onto_layers(
         &mut CloudLayer,
         Option<&mut LayerTransition>,
     )>,
+    new_slots: Query<Entity, Added<LayerSlot>>,
+    preset: Option<Res<ActivePreset>>,
     haze: Option<ResMut<Haze>>,
     haze_transition: Option<ResMut<HazeTransition>>,
     mut last_warnings: Local<Vec<String>>,
     mut steps_mapped: Local<HashMap<Entity, StepLayers>>,
+    mut preset_was_active: Local<bool>,
 ) {
+    let preset_ended = std::mem::replace(&mut *preset_was_active, preset.is_some());
+    if preset.is_some() {
+        // Mapped again from the preset's layers when it ends.
+        steps_mapped.clear();
+        return;
+    }
+    // A slot inserted again (the end of "play" mode) is mapped from the layer as it is now.
+    for entity in &new_slots {
+        steps_mapped.remove(&entity);
+    }
     if mapping.as_ref().is_some_and(|m| m.is_changed()) {
         steps_mapped.clear();
-    } else if !current.is_changed() {
+    } else if !current.is_changed() && !preset_ended && new_slots.is_empty() {
         return;
     }
     let Some(near) = &current.near else {
@@ -92,7 +108,7 @@ pub(crate) fn map_weather_onto_layers(
                 let mapped = steps_mapped
                     .entry(entity)
                     .and_modify(|cached| {
-                        if cached.key != key || !previous.weather_driven {
+                        if cached.key != key {
                             *cached = StepLayers::new(key, previous, *slot, before, after);
                         }
                     })
@@ -105,27 +121,22 @@ pub(crate) fn map_weather_onto_layers(
                 updated
             }
         };
-        if updated.weather_driven {
-            updated.far_coverage = far
-                .iter()
-                .map(|(place, mapped_far)| {
-                    // Applied to a copy of the near layer: an input the far file lacks keeps
-                    // the near value, so a missing far cover means "no change", never 0.
-                    let mut there = updated.clone();
-                    mapped_far.apply(*slot, &mut there);
-                    FarCoverage {
-                        from_m: east_north(near.scene_position),
-                        to_m: east_north(place.scene_position),
-                        coverage: there.coverage,
-                    }
-                })
-                .collect();
-        }
+        updated.far_coverage = far
+            .iter()
+            .map(|(place, mapped_far)| {
+                // Applied to a copy of the near layer: an input the far file lacks keeps the
+                // near value, so a missing far cover means "no change", never 0.
+                let mut there = updated.clone();
+                mapped_far.apply(*slot, &mut there);
+                FarCoverage {
+                    from_m: east_north(near.scene_position),
+                    to_m: east_north(place.scene_position),
+                    coverage: there.coverage,
+                }
+            })
+            .collect();
         match transition {
             Some(mut transition) => {
-                if !updated.weather_driven {
-                    continue;
-                }
                 if transition.target != updated {
                     transition.target = updated;
                 }

@@ -18,7 +18,7 @@ fn state(values: &[(Variable, f32)]) -> WeatherState {
 }
 
 #[test]
-fn far_places_set_far_coverage_on_weather_driven_layers() {
+fn far_places_set_far_coverage_on_slotted_layers() {
     use crate::scene::Place;
     use crate::weather::{CurrentWeather, PlaceWeather};
     let place = |name: &str, position: Vec3, state: WeatherState| PlaceWeather {
@@ -59,16 +59,8 @@ fn far_places_set_far_coverage_on_weather_driven_layers() {
         .world_mut()
         .spawn((LayerSlot::Mid, LayerSlot::Mid.initial_layer()))
         .id();
-    let manual = app
-        .world_mut()
-        .spawn((
-            LayerSlot::High,
-            CloudLayer {
-                weather_driven: false,
-                ..LayerSlot::High.initial_layer()
-            },
-        ))
-        .id();
+    // No slot: the user's layer.
+    let manual = app.world_mut().spawn(LayerSlot::High.initial_layer()).id();
     app.update();
     let low = app.world().get::<CloudLayer>(low).unwrap();
     assert!((low.coverage - 0.3).abs() < 1e-6);
@@ -590,29 +582,77 @@ fn levels_below_a_mountain_site_are_ignored() {
 }
 
 #[test]
-fn play_mode_layers_are_untouched() {
-    let mut layers = WeatherLayers::new();
-    let mut hand_made = CloudLayer::new(CloudKind::Cirrocumulus);
-    hand_made.coverage = 0.33;
-    hand_made.base_m = f32::NAN; // even garbage is the user's business
-    hand_made.weather_driven = false;
-    layers[LayerSlot::Low] = hand_made.clone();
+fn a_layer_is_the_users_without_its_slot_and_the_presets_while_one_is_active() {
+    use crate::scene::Place;
+    use crate::weather::preset::ActivePreset;
+    use crate::weather::{CurrentWeather, PlaceWeather};
     let mut stormy = with(fair(), Variable::LowCover, Some(1.0));
     stormy.pictocode = Some(30);
     let stormy = with(stormy, Variable::Precipitation, Some(20.0));
-    map_weather(&stormy, BERN_M, &mut layers);
-    let low = &layers[LayerSlot::Low];
-    assert_eq!(low.kind, hand_made.kind);
-    assert_eq!(low.coverage, 0.33);
-    assert!(low.base_m.is_nan());
-    assert_eq!(low.precipitation, 0.0);
-    // The other slots are still driven.
-    assert!(layers[LayerSlot::Convective].is_visible());
-    // Back to weather-driven: the mapping takes over again.
-    layers[LayerSlot::Low].weather_driven = true;
-    map_weather(&stormy, BERN_M, &mut layers);
-    assert_eq!(layers[LayerSlot::Low].coverage, 1.0);
-    assert!(layers[LayerSlot::Low].base_m.is_finite());
+    let mut app = App::new();
+    app.insert_resource(CurrentWeather {
+        near: Some(PlaceWeather {
+            place: Place {
+                name: "Bern".into(),
+                latitude_deg: 47.0,
+                longitude_deg: 7.4,
+                elevation_m: f64::from(BERN_M),
+            },
+            scene_position: Vec3::ZERO,
+            state: stormy,
+            steps: None,
+        }),
+        far: vec![],
+    })
+    .insert_resource(WeatherMapping::default())
+    .init_resource::<Assets<crate::weather::Forecast>>()
+    .add_systems(Update, map_weather_onto_layers);
+    let low = app
+        .world_mut()
+        .spawn((LayerSlot::Low, LayerSlot::Low.initial_layer()))
+        .id();
+    let coverage = |app: &App| app.world().get::<CloudLayer>(low).unwrap().coverage;
+    let hand_edit = |app: &mut App, coverage: f32| {
+        let mut layer = app.world_mut().get_mut::<CloudLayer>(low).unwrap();
+        layer.coverage = coverage;
+        layer.base_m = f32::NAN; // even garbage is the user's business
+    };
+    let weather_changes = |app: &mut App| {
+        app.world_mut()
+            .resource_mut::<CurrentWeather>()
+            .set_changed();
+        app.update();
+    };
+    app.update();
+    assert_eq!(coverage(&app), 1.0);
+
+    // Without its slot the layer keeps every hand-set value, whatever the weather does.
+    app.world_mut().entity_mut(low).remove::<LayerSlot>();
+    hand_edit(&mut app, 0.33);
+    weather_changes(&mut app);
+    assert_eq!(coverage(&app), 0.33);
+    assert!(app.world().get::<CloudLayer>(low).unwrap().base_m.is_nan());
+
+    // The slot back: the forecast takes over at once, without waiting for new weather.
+    app.world_mut().entity_mut(low).insert(LayerSlot::Low);
+    app.update();
+    assert_eq!(coverage(&app), 1.0);
+    assert!(
+        app.world()
+            .get::<CloudLayer>(low)
+            .unwrap()
+            .base_m
+            .is_finite()
+    );
+
+    // While a preset is active the forecast writes nothing; when it ends, the forecast is back.
+    app.insert_resource(ActivePreset::new(Handle::default()));
+    hand_edit(&mut app, 0.2);
+    weather_changes(&mut app);
+    assert_eq!(coverage(&app), 0.2);
+    app.world_mut().remove_resource::<ActivePreset>();
+    app.update();
+    assert_eq!(coverage(&app), 1.0);
 }
 
 #[test]
@@ -853,7 +893,6 @@ fn slots_and_layers() {
     assert_eq!(layers.visible().count(), 0, "nothing before a forecast");
     for (slot, layer) in layers.iter() {
         assert_eq!(layer.kind, slot.initial_kind());
-        assert!(layer.weather_driven);
         assert_eq!(*layer, slot.initial_layer());
     }
     assert_eq!(LayerSlot::Convective.to_string(), "convective");

@@ -8,8 +8,7 @@ use super::{LayerSlot, MappingWarning, WeatherMapping};
 use crate::layers::{CloudLayer, LayerTransition};
 use crate::weather::WeatherState;
 
-/// One [`CloudLayer`] per [`LayerSlot`], indexable by slot:
-/// `layers[LayerSlot::Low].weather_driven = false`.
+/// One [`CloudLayer`] per [`LayerSlot`], indexable by slot: `layers[LayerSlot::Low].coverage`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct WeatherLayers {
     layers: [CloudLayer; LayerSlot::COUNT],
@@ -22,7 +21,7 @@ impl Default for WeatherLayers {
 }
 
 impl WeatherLayers {
-    /// Every slot at its [`LayerSlot::initial_layer`]: weather-driven, coverage 0.
+    /// Every slot at its [`LayerSlot::initial_layer`]: coverage 0.
     #[must_use]
     pub fn new() -> Self {
         Self {
@@ -61,8 +60,7 @@ impl IndexMut<LayerSlot> for WeatherLayers {
 }
 
 /// Maps `state` onto `layers` with the default [`WeatherMapping`] and returns the warnings.
-/// Layers with [`CloudLayer::weather_driven`] false are left alone; missing inputs keep previous
-/// values. `ground_elevation_m` is the ground above sea level, metres.
+/// Missing inputs keep previous values. `ground_elevation_m` is the ground above sea level, metres.
 pub fn map_weather(
     state: &WeatherState,
     ground_elevation_m: f32,
