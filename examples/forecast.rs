@@ -1,18 +1,11 @@
 //! Clouds from a weather forecast: the bundled meteoblue forecast for Bern sets the layers, the
-//! haze and the rain, and the sun stands where it stood over Bern, over fields in cloud shadow.
-//! ```text
-//! cargo run --release --example forecast -- [--time 2021-05-03T14:00:00Z]
-//! cargo run --release --example forecast -- --headless --out forecast.png
-//! ```
+//! haze and the rain, and the sun stands where it stood over Bern, over fields in cloud shadow:
+//! `cargo run --release --example forecast -- [--time 2021-05-03T14:00:00Z] [--headless]`.
 
 mod common;
 
-use bevy::{
-    light::{
-        Atmosphere, AtmosphereEnvironmentMapLight, atmosphere::ScatteringMedium, light_consts::lux,
-    },
-    prelude::*,
-};
+use bevy::light::{Atmosphere, AtmosphereEnvironmentMapLight, atmosphere::ScatteringMedium};
+use bevy::{light::light_consts::lux, prelude::*};
 use bevy_cloudscape::prelude::*;
 use clap::Parser;
 use common::{CommonArgs, HeadlessCapturePlugin, HeadlessProgress};
@@ -53,7 +46,7 @@ fn setup(
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
 ) {
-    // The forecast drives every weather-driven layer; `spawn_weather_layers` makes one per slot.
+    // The forecast drives every layer with a `LayerSlot`; `spawn_weather_layers` makes one each.
     commands.insert_resource(WeatherSource::load(&asset_server, "weather/bern.json", []));
     spawn_weather_layers(&mut commands);
     commands.spawn(Atmosphere::earth(
@@ -68,11 +61,7 @@ fn setup(
     // Fields to the horizon, lit by the sun (dimmed in the clouds' shadows) and the sky.
     commands.spawn((
         Mesh3d(meshes.add(Plane3d::default().mesh().size(2e5, 2e5))),
-        MeshMaterial3d(materials.add(StandardMaterial {
-            base_color: Color::srgb(0.32, 0.42, 0.22),
-            perceptual_roughness: 0.9,
-            ..default()
-        })),
+        MeshMaterial3d(materials.add(Color::srgb(0.32, 0.42, 0.22))),
     ));
     commands.spawn((
         common::sky_scene_camera(),

@@ -69,11 +69,10 @@ pub mod prelude {
     };
     pub use crate::query::{CloudQuery, CloudQueryPlugin};
     pub use crate::render::{
-        CloudQuality, VolumetricClouds,
+        CloudQuality, CloudRenderPlugin, VolumetricClouds,
         haze::Haze,
-        march::CloudMarchPlugin,
         noise::{CloudNoisePlugin, CloudNoiseSettings},
-        shadow::{CloudShadowPlugin, CloudShadows},
+        shadow::CloudShadows,
     };
     pub use crate::scene::{ClockMode, GeoOrigin, SceneClock, UtcInstant};
     pub use crate::sky::{SkyPlugin, Sun};
@@ -88,9 +87,9 @@ pub mod prelude {
 /// Adds every stage of the cloud pipeline.
 ///
 /// It is a [`PluginGroup`]: stages can be left out or replaced, for example
-/// `CloudscapePlugin.build().disable::<CloudNoisePlugin>()`.
+/// `CloudscapePlugin.build().disable::<PrecipitationPlugin>()` for a sky without rain and snow.
 ///
-/// [`CloudNoisePlugin`]: render::noise::CloudNoisePlugin
+/// [`PrecipitationPlugin`]: precipitation::PrecipitationPlugin
 #[derive(Debug, Default, Clone, Copy)]
 pub struct CloudscapePlugin;
 
@@ -100,9 +99,7 @@ impl PluginGroup for CloudscapePlugin {
             .add(SchedulePlugin)
             .add(weather::WeatherPlugin)
             .add(sky::SkyPlugin)
-            .add(render::noise::CloudNoisePlugin)
-            .add(render::march::CloudMarchPlugin)
-            .add(render::shadow::CloudShadowPlugin)
+            .add(render::CloudRenderPlugin)
             .add(precipitation::PrecipitationPlugin)
     }
 }

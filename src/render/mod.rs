@@ -32,7 +32,68 @@ pub mod sky_light;
 pub mod view;
 pub mod weather_map;
 
-use bevy::{camera::Hdr, core_pipeline::prepass::DepthPrepass, prelude::*};
+use bevy::{
+    camera::Hdr,
+    core_pipeline::prepass::DepthPrepass,
+    prelude::*,
+    render::{
+        Render, RenderApp, RenderStartup, RenderSystems,
+        render_resource::SpecializedRenderPipelines,
+    },
+};
+
+/// Every GPU pass of the clouds; part of [`crate::CloudscapePlugin`]. It adds
+/// [`noise::CloudNoisePlugin`] unless the app has it already (the noise textures alone are
+/// useful without clouds), then the march with its weather map, haze and composite, and the
+/// cloud shadow map. On a GPU that cannot run a pass it warns once and leaves that pass out.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct CloudRenderPlugin;
+
+impl Plugin for CloudRenderPlugin {
+    fn build(&self, app: &mut App) {
+        if !app.is_plugin_added::<noise::CloudNoisePlugin>() {
+            app.add_plugins(noise::CloudNoisePlugin);
+        }
+        march::build(app);
+        if app.get_sub_app(RenderApp).is_some() {
+            haze::load_haze_shader(app);
+            composite::load_composite_shaders(app);
+            weather_map::load_weather_map_shader(app);
+        }
+        shadow::build(app);
+    }
+
+    fn finish(&self, app: &mut App) {
+        if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
+            if let Some(reason) = march::unsupported(render_app) {
+                warn!("bevy_cloudscape: volumetric clouds disabled: {reason}");
+            } else {
+                march::finish(render_app);
+                render_app
+                    .init_resource::<SpecializedRenderPipelines<composite::CloudUpsamplePipeline>>()
+                    .init_resource::<SpecializedRenderPipelines<composite::CloudTemporalPipeline>>()
+                    .add_systems(
+                        RenderStartup,
+                        (
+                            composite::init_cloud_upsample_pipeline,
+                            composite::init_cloud_temporal_pipeline,
+                            weather_map::init_cloud_weather_map_pipeline,
+                        ),
+                    )
+                    .add_systems(
+                        Render,
+                        (
+                            composite::prepare_composite_targets
+                                .in_set(RenderSystems::PrepareResources),
+                            weather_map::prepare_weather_maps
+                                .in_set(RenderSystems::PrepareBindGroups),
+                        ),
+                    );
+            }
+        }
+        shadow::finish(app);
+    }
+}
 
 /// Named quality presets of [`VolumetricClouds`], as [`VolumetricClouds::quality`] tells them;
 /// `Custom` once a knob differs from every preset.

@@ -74,19 +74,15 @@ use super::{
         COMPOSITE_BLEND, CloudHistory, CloudLowResTargets, CloudShaftTarget, CloudTemporalPipeline,
         CloudUpsampleKey, CloudUpsamplePipeline, DepthLayouts, LOW_RES_COLOUR_FORMAT,
         LOW_RES_DISTANCE_FORMAT, SHAFT_FORMAT, depth_binding, depth_shader_defs,
-        init_cloud_temporal_pipeline, init_cloud_upsample_pipeline, load_composite_shaders,
-        prepare_composite_targets,
     },
-    haze::{CloudShadowFrame, GpuHazeUniforms, Haze, load_haze_shader},
+    haze::{CloudShadowFrame, GpuHazeUniforms, Haze},
     noise::CloudNoiseTextures,
     view::{
         CloudViewBuffers, GpuCloudLayer, GpuCloudUniforms, clear_history_resets,
         extract_cloud_views,
     },
     weather_map::{
-        CloudWeatherMap, CloudWeatherMapPipeline, assign_weather_map,
-        init_cloud_weather_map_pipeline, load_weather_map_shader, planned_weather_map_size,
-        prepare_weather_maps,
+        CloudWeatherMap, CloudWeatherMapPipeline, assign_weather_map, planned_weather_map_size,
     },
 };
 use crate::{
@@ -98,101 +94,81 @@ use crate::{
 
 pub use super::view::{CloudPassStats, CloudSun, ExtractedCloudView, march_inputs};
 
-/// The ray-march pass; part of [`crate::CloudscapePlugin`].
-#[derive(Debug, Default, Clone, Copy)]
-pub struct CloudMarchPlugin;
-
-impl Plugin for CloudMarchPlugin {
-    fn build(&self, app: &mut App) {
-        app.register_type::<VolumetricClouds>()
-            .register_type::<CloudWorld>()
-            .init_resource::<CloudWorld>()
-            .register_type::<LayerDrift>()
-            .register_type::<Haze>()
-            .init_resource::<Haze>()
-            .register_type::<crate::render::sky_light::CloudSkyLight>()
-            .add_systems(
-                Update,
-                (
-                    drift_cloud_layers
-                        .after(CloudscapeSystems::Layers)
-                        .before(CloudscapeSystems::Sun),
-                    crate::render::sky_light::light_the_scene_under_the_clouds
-                        .after(CloudscapeSystems::Sun),
-                ),
-            );
-        // Without a renderer (a server, a test of the weather alone) the layers still drift.
-        if app.get_sub_app(RenderApp).is_none() {
-            return;
-        }
-        load_shader_library!(app, "parameters.wgsl");
-        load_shader_library!(app, "textures.wgsl");
-        load_shader_library!(app, "geometry.wgsl");
-        load_shader_library!(app, "density.wgsl");
-        load_shader_library!(app, "light.wgsl");
-        load_shader_library!(app, "shadow.wgsl");
-        load_shader_library!(app, "clouds.wgsl");
-        load_haze_shader(app);
-        load_composite_shaders(app);
-        load_weather_map_shader(app);
-        embedded_asset!(app, "march.wgsl");
-        app.sub_app_mut(RenderApp)
-            .init_resource::<CloudPassStats>()
-            .add_systems(
-                ExtractSchedule,
-                (
-                    extract_cloud_views,
-                    clear_history_resets.after(extract_cloud_views),
-                ),
-            );
+/// The march's part of [`super::CloudRenderPlugin::build`]: the main-world data every camera
+/// shares, the shader libraries and the per-view extraction.
+pub(super) fn build(app: &mut App) {
+    app.register_type::<VolumetricClouds>()
+        .register_type::<CloudWorld>()
+        .init_resource::<CloudWorld>()
+        .register_type::<LayerDrift>()
+        .register_type::<Haze>()
+        .init_resource::<Haze>()
+        .register_type::<crate::render::sky_light::CloudSkyLight>()
+        .add_systems(
+            Update,
+            (
+                drift_cloud_layers
+                    .after(CloudscapeSystems::Layers)
+                    .before(CloudscapeSystems::Sun),
+                crate::render::sky_light::light_the_scene_under_the_clouds
+                    .after(CloudscapeSystems::Sun),
+            ),
+        );
+    // Without a renderer (a server, a test of the weather alone) the layers still drift.
+    if app.get_sub_app(RenderApp).is_none() {
+        return;
     }
+    load_shader_library!(app, "parameters.wgsl");
+    load_shader_library!(app, "textures.wgsl");
+    load_shader_library!(app, "geometry.wgsl");
+    load_shader_library!(app, "density.wgsl");
+    load_shader_library!(app, "light.wgsl");
+    load_shader_library!(app, "shadow.wgsl");
+    load_shader_library!(app, "clouds.wgsl");
+    embedded_asset!(app, "march.wgsl");
+    app.sub_app_mut(RenderApp)
+        .init_resource::<CloudPassStats>()
+        .add_systems(
+            ExtractSchedule,
+            (
+                extract_cloud_views,
+                clear_history_resets.after(extract_cloud_views),
+            ),
+        );
+}
 
-    fn finish(&self, app: &mut App) {
-        let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
-            return;
-        };
-        let adapter = render_app.world().resource::<RenderAdapter>();
-        let fragment_storage = adapter
-            .get_downlevel_capabilities()
-            .flags
-            .contains(DownlevelFlags::VERTEX_STORAGE | DownlevelFlags::COMPUTE_SHADERS);
-        let limits = render_app.world().resource::<RenderDevice>().limits();
-        if !fragment_storage || limits.max_storage_buffers_per_shader_stage == 0 {
-            warn!(
-                "bevy_cloudscape: volumetric clouds disabled: the GPU has no storage buffers in \
-                 fragment shaders"
-            );
-            return;
-        }
-        render_app
-            .init_resource::<SpecializedRenderPipelines<CloudMarchPipeline>>()
-            .init_resource::<SpecializedRenderPipelines<CloudUpsamplePipeline>>()
-            .init_resource::<SpecializedRenderPipelines<CloudTemporalPipeline>>()
-            .add_systems(
-                RenderStartup,
-                (
-                    init_cloud_march_pipeline,
-                    init_cloud_upsample_pipeline,
-                    init_cloud_temporal_pipeline,
-                    init_cloud_weather_map_pipeline,
-                ),
-            )
-            .add_systems(
-                Render,
-                (
-                    prepare_cloud_march_pipelines.in_set(RenderSystems::Prepare),
-                    (prepare_cloud_view_buffers, prepare_composite_targets)
-                        .in_set(RenderSystems::PrepareResources),
-                    prepare_weather_maps.in_set(RenderSystems::PrepareBindGroups),
-                ),
-            )
-            .add_systems(
-                Core3d,
-                march_cloud_layers
-                    .after(Core3dSystems::MainPass)
-                    .before(Core3dSystems::EarlyPostProcess),
-            );
-    }
+/// Why this GPU cannot march clouds, if it cannot: the march reads its layers from storage
+/// buffers in a fragment shader.
+pub(super) fn unsupported(render_app: &SubApp) -> Option<&'static str> {
+    let adapter = render_app.world().resource::<RenderAdapter>();
+    let fragment_storage = adapter
+        .get_downlevel_capabilities()
+        .flags
+        .contains(DownlevelFlags::VERTEX_STORAGE | DownlevelFlags::COMPUTE_SHADERS);
+    let limits = render_app.world().resource::<RenderDevice>().limits();
+    (!fragment_storage || limits.max_storage_buffers_per_shader_stage == 0)
+        .then_some("the GPU has no storage buffers in fragment shaders")
+}
+
+/// The march's part of [`super::CloudRenderPlugin::finish`], on a GPU that can run it: its
+/// pipeline, the view buffers, and the pass after the main pass.
+pub(super) fn finish(render_app: &mut SubApp) {
+    render_app
+        .init_resource::<SpecializedRenderPipelines<CloudMarchPipeline>>()
+        .add_systems(RenderStartup, init_cloud_march_pipeline)
+        .add_systems(
+            Render,
+            (
+                prepare_cloud_march_pipelines.in_set(RenderSystems::Prepare),
+                prepare_cloud_view_buffers.in_set(RenderSystems::PrepareResources),
+            ),
+        )
+        .add_systems(
+            Core3d,
+            march_cloud_layers
+                .after(Core3dSystems::MainPass)
+                .before(Core3dSystems::EarlyPostProcess),
+        );
 }
 
 #[allow(clippy::too_many_arguments)]

@@ -162,64 +162,59 @@ pub struct CloudShadowStats {
     pub clears: u64,
 }
 
-/// Computes the cloud shadow map; part of [`crate::CloudscapePlugin`].
-#[derive(Debug, Default, Clone, Copy)]
-pub struct CloudShadowPlugin;
-
-impl Plugin for CloudShadowPlugin {
-    fn build(&self, app: &mut App) {
-        app.init_resource::<CloudShadows>()
-            .register_type::<CloudShadows>();
-        // Without a renderer (a server, a test of the weather alone) there is nothing to shade.
-        if app.get_sub_app(RenderApp).is_none() {
-            return;
-        }
-        app.add_plugins(ExtractResourcePlugin::<CloudShadows>::default())
-            .add_systems(Update, place_cloud_shadow_map.after(CloudscapeSystems::Sun));
-        embedded_asset!(app, "shadow.wgsl");
-        app.sub_app_mut(RenderApp)
-            .init_resource::<CloudShadowStats>()
-            .init_resource::<ExtractedCloudShadow>()
-            .add_systems(ExtractSchedule, extract_cloud_shadow);
+/// The shadow map's part of [`super::CloudRenderPlugin::build`].
+pub(super) fn build(app: &mut App) {
+    app.init_resource::<CloudShadows>()
+        .register_type::<CloudShadows>();
+    // Without a renderer (a server, a test of the weather alone) there is nothing to shade.
+    if app.get_sub_app(RenderApp).is_none() {
+        return;
     }
+    app.add_plugins(ExtractResourcePlugin::<CloudShadows>::default())
+        .add_systems(Update, place_cloud_shadow_map.after(CloudscapeSystems::Sun));
+    embedded_asset!(app, "shadow.wgsl");
+    app.sub_app_mut(RenderApp)
+        .init_resource::<CloudShadowStats>()
+        .init_resource::<ExtractedCloudShadow>()
+        .add_systems(ExtractSchedule, extract_cloud_shadow);
+}
 
-    fn finish(&self, app: &mut App) {
-        let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
-            return;
-        };
-        let device = render_app.world().resource::<RenderDevice>();
-        let adapter = render_app.world().resource::<RenderAdapter>();
-        if !bevy::pbr::decal::clustered::clustered_decals_are_usable(device, adapter) {
-            warn!(
-                "bevy_cloudscape: this GPU has no texture binding arrays, so Bevy ignores light \
-                 textures and cloud shadows will not show on the ground"
-            );
-        }
-        if device.limits().max_storage_textures_per_shader_stage == 0
-            || !adapter
-                .get_downlevel_capabilities()
-                .flags
-                .contains(DownlevelFlags::COMPUTE_SHADERS)
-        {
-            warn!(
-                "bevy_cloudscape: cloud shadows disabled: the GPU has no compute storage textures"
-            );
-            return;
-        }
-        render_app
-            .init_resource::<ShadowMapState>()
-            .add_systems(RenderStartup, init_cloud_shadow_pipeline)
-            .add_systems(
-                Render,
-                prepare_cloud_shadow.in_set(RenderSystems::PrepareBindGroups),
-            )
-            .add_systems(
-                RenderGraph,
-                generate_cloud_shadow
-                    .in_set(RenderGraphSystems::Render)
-                    .before(camera_driver),
-            );
+/// The shadow map's part of [`super::CloudRenderPlugin::finish`]: the compute pass, where the GPU
+/// can run it.
+pub(super) fn finish(app: &mut App) {
+    let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
+        return;
+    };
+    let device = render_app.world().resource::<RenderDevice>();
+    let adapter = render_app.world().resource::<RenderAdapter>();
+    if !bevy::pbr::decal::clustered::clustered_decals_are_usable(device, adapter) {
+        warn!(
+            "bevy_cloudscape: this GPU has no texture binding arrays, so Bevy ignores light \
+             textures and cloud shadows will not show on the ground"
+        );
     }
+    if device.limits().max_storage_textures_per_shader_stage == 0
+        || !adapter
+            .get_downlevel_capabilities()
+            .flags
+            .contains(DownlevelFlags::COMPUTE_SHADERS)
+    {
+        warn!("bevy_cloudscape: cloud shadows disabled: the GPU has no compute storage textures");
+        return;
+    }
+    render_app
+        .init_resource::<ShadowMapState>()
+        .add_systems(RenderStartup, init_cloud_shadow_pipeline)
+        .add_systems(
+            Render,
+            prepare_cloud_shadow.in_set(RenderSystems::PrepareBindGroups),
+        )
+        .add_systems(
+            RenderGraph,
+            generate_cloud_shadow
+                .in_set(RenderGraphSystems::Render)
+                .before(camera_driver),
+        );
 }
 
 /// The camera the map follows: the active camera with [`VolumetricClouds`] of lowest order.
