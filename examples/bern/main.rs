@@ -70,9 +70,10 @@ mod common;
 
 mod cli;
 mod headless;
-mod panel;
+mod panels;
 mod photos;
 mod scene;
+mod terrain;
 mod view;
 mod viewpoint;
 
@@ -80,6 +81,7 @@ use cli::*;
 use headless::*;
 use photos::*;
 use scene::*;
+use terrain::*;
 use view::*;
 use viewpoint::*;
 
@@ -207,7 +209,7 @@ fn main() -> AppExit {
                 photo_keys.before(update_photo_overlay),
             ),
         );
-        app.add_plugins(panel::PanelPlugin);
+        app.add_plugins(panels::PanelPlugin);
     }
     if options.log_frame_times {
         use bevy::{

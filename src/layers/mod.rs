@@ -59,7 +59,7 @@
 //!
 //! - **Altitudes** are typical mid-latitude heights inside the WMO étages (International Cloud
 //!   Atlas, WMO-No. 407: low étage from the surface to 2 km, middle 2–7 km, high 5–13 km in
-//!   temperate regions; the same bands as `shared/formats/meteoblue.md`). Cumulonimbus spans all
+//!   temperate regions; the same bands as meteoblue's Packages API documentation (docs.meteoblue.com)). Cumulonimbus spans all
 //!   three étages, from a low base to an anvil near the tropopause (Thomann 2021 §3.3.10: "spanning
 //!   over the whole troposphere").
 //! - **Densities** are extinction coefficients from the geometric-optics relation
@@ -277,6 +277,7 @@ impl CloudLayer {
     ///   renderer divides by it).
     /// - `skew`: a non-finite value becomes the kind's default.
     /// - `wind_m_s`: a non-finite component becomes 0.
+    /// - `shape_noise`: clamped to 0–1; NaN becomes 1 (the full shapes, the default).
     /// - `precipitation`: clamped to 0–1; NaN becomes 0.
     /// - `coverage_height`: clamped to 0–1; NaN becomes the kind's default.
     /// - `rain_mm_per_h`: a negative or NaN value becomes 0; +∞ is kept as `f32::MAX`.
@@ -305,6 +306,7 @@ impl CloudLayer {
         }
         self.wind_m_s = self.wind_m_s.map(|v| finite_or(v, 0.0));
         self.skew = finite_or(self.skew, defaults.skew);
+        self.shape_noise = unit(self.shape_noise, 1.0);
         self.precipitation = unit(self.precipitation, 0.0);
         self.coverage_height = unit(self.coverage_height, defaults.coverage_height);
         self.rain_mm_per_h = if self.rain_mm_per_h > 0.0 {
@@ -633,6 +635,15 @@ mod tests {
         assert!(with(|l| l.coverage = 1e-6));
     }
 
+    /// A usable far place: 20 km east, half covered.
+    fn far_place() -> FarCoverage {
+        FarCoverage {
+            from_m: [0.0, 0.0],
+            to_m: [20_000.0, 0.0],
+            coverage: 0.5,
+        }
+    }
+
     #[test]
     fn sanitizing_repairs_every_field() {
         let kind = CloudKind::Altocumulus;
@@ -647,8 +658,28 @@ mod tests {
         layer.rain_mm_per_h = -1.0;
         layer.weather_map_scale_m = 0.0;
         layer.coverage_height = 3.0;
+        layer.shape_noise = -2.0;
+        layer.far_coverage = vec![
+            FarCoverage {
+                coverage: 1.5,
+                ..far_place()
+            },
+            FarCoverage {
+                to_m: [f32::NAN, 0.0],
+                ..far_place()
+            },
+        ];
         let clean = layer.sanitized();
         assert_eq!(clean.coverage, 1.0);
+        assert_eq!(clean.shape_noise, 0.0);
+        assert_eq!(
+            clean.far_coverage,
+            vec![FarCoverage {
+                coverage: 1.0,
+                ..far_place()
+            }],
+            "the unusable place dropped, the other's coverage clamped"
+        );
         assert_eq!(clean.precipitation, 0.0);
         assert_eq!(clean.coverage_height, 1.0);
         assert_eq!((clean.base_m, clean.top_m), (3_200.0, 4_000.0));
@@ -668,6 +699,7 @@ mod tests {
         nan.coverage_height = f32::NAN;
         nan.rain_mm_per_h = f32::NAN;
         nan.weather_map_scale_m = f32::INFINITY;
+        nan.shape_noise = f32::NAN;
         let clean = nan.sanitized();
         assert_eq!(clean, CloudLayer::new(kind));
         // The inverted default case: a NaN base replaced by a default above the given top.

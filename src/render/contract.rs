@@ -7,6 +7,7 @@ use bevy::render::render_resource::ShaderType;
 
 use super::{
     composite::{GpuTemporalUniforms, GpuViewGround},
+    growth::GpuGrowthUniforms,
     haze::GpuHazeUniforms,
     noise::GpuNoiseParams,
     shadow::GpuShadowUniforms,
@@ -14,7 +15,7 @@ use super::{
     weather_map::GpuWeatherMapUniforms,
 };
 use crate::reference::{
-    blue_noise, composite, haze,
+    blue_noise, composite, growth, haze,
     noise::{self as noise_ref},
     render as march_ref, shadow,
 };
@@ -55,6 +56,7 @@ const SHADERS: &[(&str, &str)] = &[
         "weather_map/weather_map.wgsl",
         include_str!("weather_map/weather_map.wgsl"),
     ),
+    ("growth/growth.wgsl", include_str!("growth/growth.wgsl")),
 ];
 
 /// WGSL constants of the GPU's own schedule, which the CPU twin has no use for: the deferred
@@ -181,6 +183,9 @@ fn rust_constants() -> Vec<(&'static str, Vec<f64>)> {
             slot(noise_ref::SLOT_WEATHER_VARIATION),
         ),
         ("SLOT_WEATHER_CURL", slot(noise_ref::SLOT_WEATHER_CURL)),
+        ("HUM", scalar(growth::HUM.into())),
+        ("ACT", scalar(growth::ACT.into())),
+        ("CLD", scalar(growth::CLD.into())),
         // Which fBm a noise octave sums; the CPU twin passes the function itself.
         ("OCTAVE_PERLIN", scalar(0.0)),
         ("OCTAVE_WORLEY", scalar(1.0)),
@@ -320,7 +325,7 @@ fn is_padding(field: &str) -> bool {
 
 #[test]
 fn every_uniform_layout_matches_its_rust_struct() {
-    let layouts: [(&str, &str, &str, &str, u64); 8] = [
+    let layouts: [(&str, &str, &str, &str, u64); 9] = [
         (
             include_str!("march/parameters.wgsl"),
             "CloudUniforms",
@@ -376,6 +381,13 @@ fn every_uniform_layout_matches_its_rust_struct() {
             include_str!("weather_map/mod.rs"),
             "GpuWeatherMapUniforms",
             GpuWeatherMapUniforms::min_size().get(),
+        ),
+        (
+            include_str!("growth/growth.wgsl"),
+            "GrowthUniforms",
+            include_str!("growth/mod.rs"),
+            "GpuGrowthUniforms",
+            GpuGrowthUniforms::min_size().get(),
         ),
     ];
     for (wgsl, wgsl_name, rust, rust_name, rust_size) in layouts {

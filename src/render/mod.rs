@@ -49,11 +49,34 @@ use bevy::{
 #[derive(Debug, Default, Clone, Copy)]
 pub struct CloudRenderPlugin;
 
+/// The main-world data every camera's passes share: the camera component, the world and haze
+/// resources, the layers' drift with the wind and the sky light under the clouds. Registered
+/// with or without a renderer (a server, a test of the weather alone), so the layers still drift.
+fn scene_data(app: &mut App) {
+    app.register_type::<VolumetricClouds>()
+        .register_type::<crate::world::CloudWorld>()
+        .init_resource::<crate::world::CloudWorld>()
+        .register_type::<crate::layers::LayerDrift>()
+        .register_type::<haze::Haze>()
+        .init_resource::<haze::Haze>()
+        .register_type::<sky_light::CloudSkyLight>()
+        .add_systems(
+            Update,
+            (
+                crate::layers::drift_cloud_layers
+                    .after(crate::CloudscapeSystems::Layers)
+                    .before(crate::CloudscapeSystems::Sun),
+                sky_light::light_the_scene_under_the_clouds.after(crate::CloudscapeSystems::Sun),
+            ),
+        );
+}
+
 impl Plugin for CloudRenderPlugin {
     fn build(&self, app: &mut App) {
         if !app.is_plugin_added::<noise::CloudNoisePlugin>() {
             app.add_plugins(noise::CloudNoisePlugin);
         }
+        scene_data(app);
         march::build(app);
         if app.get_sub_app(RenderApp).is_some() {
             haze::load_haze_shader(app);

@@ -1,6 +1,6 @@
 //! UTC instants as whole Unix seconds, with hand-written RFC 3339 / ISO 8601 parsing.
 //!
-//! Forecast files stamp their values in three ways (see `shared/formats/`): local wall-clock time
+//! Forecast files stamp their values in three ways (the APIs' documentation: docs.meteoblue.com, open-meteo.com/en/docs): local wall-clock time
 //! plus one offset for the whole file (`"2021-05-03 14:00"` + `utc_timeoffset: 2.0`), ISO 8601
 //! strings with or without an offset (`"2021-05-03T14:00+02:00"`), and integer Unix seconds. All of
 //! them end up as a [`UtcInstant`], so the rest of the crate never sees a time zone.

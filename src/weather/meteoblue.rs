@@ -1,4 +1,4 @@
-//! meteoblue Packages API files (`shared/formats/meteoblue.md`).
+//! meteoblue Packages API files (meteoblue's Packages API documentation (docs.meteoblue.com)).
 //!
 //! Reads `basic-1h`, `clouds-1h` and their merge `basic-1h_clouds-1h` (one `data_1h` block with one
 //! `time` array), tolerates `data_xmin`, `data_3h`, `data_day` and `data_current` blocks (the

@@ -12,8 +12,8 @@
 //! - meteoblue Packages API JSON: `basic-1h`, `clouds-1h`, both merged, with or without
 //!   `data_day`, `data_xmin`, `data_3h`, `data_current` and profile blocks; local
 //!   `"YYYY-MM-DD hh:mm"` times with `metadata.utc_timeoffset`, ISO 8601 or UTC timestamps; the
-//!   API's misspelt `timezone_abbrevation` (`shared/formats/meteoblue.md`);
-//! - Open-Meteo JSON, one location or an array (`shared/formats/open-meteo.md`).
+//!   API's misspelt `timezone_abbrevation` (meteoblue's Packages API documentation (docs.meteoblue.com));
+//! - Open-Meteo JSON, one location or an array (Open-Meteo's forecast API documentation (open-meteo.com/en/docs)).
 //!
 //! Typed serde structs do the reading, so unknown keys are ignored and missing required keys are
 //! errors. `null` values stay explicit gaps ([`Series`] holds `Option<f32>`). A bad file never

@@ -1,4 +1,4 @@
-//! Open-Meteo forecast files (`shared/formats/open-meteo.md`).
+//! Open-Meteo forecast files (Open-Meteo's forecast API documentation (open-meteo.com/en/docs)).
 //!
 //! One location per JSON object (a multi-location request returns an array of them; see
 //! [`Forecast::all_from_slice`](super::Forecast::all_from_slice)). Units are given per variable in

@@ -2,7 +2,8 @@
 //! of quantity.
 //!
 //! meteoblue keys units by category (`units.windspeed` covers every wind speed), Open-Meteo per
-//! variable (`hourly_units.wind_speed_10m`); both lists are in `shared/formats/`. Every conversion
+//! variable (`hourly_units.wind_speed_10m`); both lists are in
+//! meteoblue's Packages API documentation (docs.meteoblue.com) and Open-Meteo's forecast API documentation (open-meteo.com/en/docs). Every conversion
 //! here is linear (`si = value * scale + offset`), which covers °F → °C too.
 
 /// What kind of quantity a forecast column holds: decides the unit conversion and the range check.

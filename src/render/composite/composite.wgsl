@@ -20,7 +20,8 @@ const MIN_WEIGHT_SUM: f32 = 1e-4;
 const NO_HIT: f32 = -1.0;
 
 // Where the ground sphere is for a view: the camera's local vertical (xyz) and altitude above
-// the ground (w, m), and the planet's radius (m). Mirror in Rust: `GpuViewGround` (32 bytes).
+// the ground (w, m), and the planet's radius (m). Written by `GpuViewGround` (Rust;
+// `render/contract.rs` holds the layouts equal).
 struct ViewGround {
     camera_up_altitude: vec4<f32>,
     planet_radius_m: f32,

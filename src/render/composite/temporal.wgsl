@@ -12,7 +12,7 @@
     view_direction, surface_distance, view_ray_end,
 }
 
-// Mirror in Rust: `GpuTemporalUniforms` (96 bytes).
+// Written by `GpuTemporalUniforms` (Rust); `render/contract.rs` holds the two layouts equal.
 struct TemporalUniforms {
     // Last frame's clip space from a point relative to this frame's camera (world axes).
     previous_clip_from_relative: mat4x4<f32>,

@@ -1,12 +1,13 @@
 // One step of the cloud-growth automaton (Dobashi et al. 2000): each cell's humid, activated and
 // cloud bits from its own and its neighbours' bits and three probabilities.
-// CPU twin, bit for bit: `src/reference/growth.rs` (the rules are in its docs).
+// CPU twin, bit for bit: `src/reference/growth.rs` (the rules are in its docs). The cell bits
+// are its constants of the same names (checked by `render/contract.rs`).
 
 const HUM: u32 = 1u;
 const ACT: u32 = 2u;
 const CLD: u32 = 4u;
 
-// 32 bytes. Mirror in Rust: `GpuGrowthUniforms`.
+// Written by `GpuGrowthUniforms` (Rust); `render/contract.rs` holds the two layouts equal.
 struct GrowthUniforms {
     // Cells along x, y (horizontal) and z (up).
     size: vec3<u32>,

@@ -12,7 +12,8 @@
 #import bevy_cloudscape::cloud_shadow::{shadow_map_uv, shadow_map_covers, sample_shadow_map}
 #import bevy_cloudscape::composite::{intersect_altitude_sphere, ground_distance}
 
-// 36 bytes. Mirror in Rust: `GpuHazeUniforms` (`HazeSettings` is the f64 source).
+// Written by `GpuHazeUniforms` (Rust; `HazeSettings` is the f64 source); `render/contract.rs`
+// holds the two layouts equal.
 struct HazeUniforms {
     // Extinction at the ground, 1/m; 0: no haze.
     extinction_per_m: f32,

@@ -69,13 +69,12 @@ use bevy::{
 };
 
 use super::{
-    VolumetricClouds,
     composite::{
         COMPOSITE_BLEND, CloudHistory, CloudLowResTargets, CloudShaftTarget, CloudTemporalPipeline,
         CloudUpsampleKey, CloudUpsamplePipeline, DepthLayouts, LOW_RES_COLOUR_FORMAT,
         LOW_RES_DISTANCE_FORMAT, SHAFT_FORMAT, depth_binding, depth_shader_defs,
     },
-    haze::{CloudShadowFrame, GpuHazeUniforms, Haze},
+    haze::{CloudShadowFrame, GpuHazeUniforms},
     noise::CloudNoiseTextures,
     view::{
         CloudViewBuffers, GpuCloudLayer, GpuCloudUniforms, clear_history_resets,
@@ -85,36 +84,13 @@ use super::{
         CloudWeatherMap, CloudWeatherMapPipeline, assign_weather_map, planned_weather_map_size,
     },
 };
-use crate::{
-    CloudscapeSystems,
-    layers::{LayerDrift, drift_cloud_layers},
-    reference::blue_noise::{BLUE_NOISE_SIZE, blue_noise_map},
-    world::CloudWorld,
-};
+use crate::reference::blue_noise::{BLUE_NOISE_SIZE, blue_noise_map};
 
 pub use super::view::{CloudPassStats, CloudSun, ExtractedCloudView, march_inputs};
 
-/// The march's part of [`super::CloudRenderPlugin::build`]: the main-world data every camera
-/// shares, the shader libraries and the per-view extraction.
+/// The march's part of [`super::CloudRenderPlugin::build`]: the shader libraries and the
+/// per-view extraction (the main-world data every camera shares is registered by the plugin).
 pub(super) fn build(app: &mut App) {
-    app.register_type::<VolumetricClouds>()
-        .register_type::<CloudWorld>()
-        .init_resource::<CloudWorld>()
-        .register_type::<LayerDrift>()
-        .register_type::<Haze>()
-        .init_resource::<Haze>()
-        .register_type::<crate::render::sky_light::CloudSkyLight>()
-        .add_systems(
-            Update,
-            (
-                drift_cloud_layers
-                    .after(CloudscapeSystems::Layers)
-                    .before(CloudscapeSystems::Sun),
-                crate::render::sky_light::light_the_scene_under_the_clouds
-                    .after(CloudscapeSystems::Sun),
-            ),
-        );
-    // Without a renderer (a server, a test of the weather alone) the layers still drift.
     if app.get_sub_app(RenderApp).is_none() {
         return;
     }

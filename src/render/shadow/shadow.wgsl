@@ -6,7 +6,7 @@
 
 #import bevy_cloudscape::cloud_shadow::shadow_column
 
-// 80 bytes. Mirror in Rust: `GpuShadowUniforms`.
+// Written by `GpuShadowUniforms` (Rust); `render/contract.rs` holds the two layouts equal.
 struct ShadowUniforms {
     // Centre of the map relative to the camera the layer uniforms were built for, m.
     centre_m: vec4<f32>,

@@ -6,7 +6,7 @@
 #import bevy_cloudscape::cloud_parameters::cloud_layers
 #import bevy_cloudscape::cloud_density::{texel_shape_warp, weather_texel_coverage}
 
-// 16 bytes. Mirror in Rust: `GpuWeatherMapUniforms`.
+// Written by `GpuWeatherMapUniforms` (Rust); `render/contract.rs` holds the two layouts equal.
 struct WeatherMapUniforms {
     // Texels per side of every slice.
     size: u32,

@@ -19,7 +19,7 @@ pub use variable::Variable;
 /// `null` (a gap that sampling bridges or reports, never a silent zero).
 pub type Series = Vec<Option<f32>>;
 
-/// The file formats [`Forecast`] reads (`shared/formats/meteoblue.md`, `open-meteo.md`).
+/// The file formats [`Forecast`] reads (documented at docs.meteoblue.com and open-meteo.com/en/docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum ForecastFormat {
     /// meteoblue Packages API JSON (`basic-1h`, `clouds-1h`, merged packages, profile packages).
@@ -66,7 +66,7 @@ pub struct Forecast {
     /// The continuous variables, indexed by `Variable as usize`; `None` for a variable the file
     /// does not have.
     pub series: [Option<Series>; Variable::COUNT],
-    /// meteoblue hourly pictocode 1–35 per time (see `shared/formats/meteoblue.md`).
+    /// meteoblue hourly pictocode 1–35 per time (see meteoblue's Packages API documentation (docs.meteoblue.com)).
     pub pictocode: Option<Vec<Option<u8>>>,
     /// WMO weather interpretation code 0–99 per time (Open-Meteo `weather_code`).
     pub wmo_weather_code: Option<Vec<Option<u8>>>,

@@ -18,7 +18,7 @@ impl CloudBand {
 }
 
 /// The low, mid and high bands that a forecast's `lowclouds`, `midclouds` and `highclouds`
-/// describe (`shared/formats/meteoblue.md`, "Cloud layer altitudes").
+/// describe (meteoblue's Packages API documentation (docs.meteoblue.com), cloud layer altitudes).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CloudBands {
     /// Low-cloud band.

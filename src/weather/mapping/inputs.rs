@@ -29,7 +29,7 @@ pub(super) struct CodeHints {
 impl CodeHints {
     pub(super) fn from_state(state: &WeatherState) -> Self {
         if let Some(code) = state.pictocode.filter(|c| (1..=35).contains(c)) {
-            // shared/formats/meteoblue.md, hourly pictocodes.
+            // meteoblue's Packages API documentation (docs.meteoblue.com), hourly pictocodes.
             Self {
                 known: true,
                 thunder: matches!(code, 10..=12 | 27..=30),

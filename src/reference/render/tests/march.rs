@@ -147,7 +147,9 @@ fn coverage_one_is_overcast() {
     assert!(result.transmittance < 0.01);
 }
 
-/// The hard cases of DESIGN.md ("Hard cases that must stay finite and correct").
+/// The hard cases that must stay finite and correct: a camera on the ground, exactly on a
+/// layer's base or top, inside it or in space; rays up, down, level and tangent to the layer's
+/// spheres; the sun along the view ray and below the horizon; a week of wind far from the origin.
 #[test]
 fn hard_cases_stay_finite() {
     let r = EARTH_RADIUS_M;
@@ -412,9 +414,9 @@ fn cloud_walls_look_the_same_whatever_the_step_phase() {
          converged {converged:.4}, mean {mean:.4}"
     );
     assert!(mean > 0.0);
-    // Measured: 0.78 % departure, the mean 1.2 % below 1024 steps. Session 5 measured, with
-    // one sample per dense step, 2.4 % departure and a mean about 55 % too dark (the sample
-    // lies anywhere up to a step deep in the cloud); without the stride back-up, 23 %.
+    // With one sample per dense step the sample lies anywhere up to a step deep in the cloud,
+    // and the wall's brightness follows the step grid; without the stride back-up the march
+    // starts its detail after the wall's edge.
     assert!(
         worst < 0.05,
         "the wall's brightness follows the step grid: {worst}"
