@@ -3,7 +3,7 @@
 //! fed by two [`NoiseMaker`] fields, after Rosa 2013 ("Large-scale cloudscapes using noise",
 //! §3–4): the humidity field says where clouds may grow, the activation field where they start.
 //! With [`CloudGrowth::follow_coverage`] the probabilities follow the layer's coverage
-//! ([`growth_probabilities`]): while the coverage rises, formation outweighs evaporation and new
+//! ([`GrowthSteering::probabilities`]): while the coverage rises, formation outweighs evaporation and new
 //! clouds appear and grow; while it falls, clouds evaporate.
 
 use bevy::prelude::*;
@@ -146,7 +146,7 @@ pub struct CloudGrowth {
     pub activation_probability: f32,
     /// Chance per step that a cloud cell evaporates (`p_ext`). Default 0.01.
     pub extinction_probability: f32,
-    /// Let the layer's coverage steer formation and evaporation ([`growth_probabilities`]).
+    /// Let the layer's coverage steer formation and evaporation ([`GrowthSteering::probabilities`]).
     /// Default true.
     pub follow_coverage: bool,
     /// Automaton steps per hour of scene time. Default 120.

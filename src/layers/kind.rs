@@ -75,7 +75,7 @@ impl CloudKind {
     }
 
     /// The kind's default altitudes, coverage, density, weather-map period, skew and coverage
-    /// height (the table in the [module docs](self), with its sources).
+    /// height (the table in the [`layers`](crate::layers) module docs, with its sources).
     #[must_use]
     pub const fn defaults(self) -> KindDefaults {
         let (base_m, top_m, coverage, density, weather_map_scale_m, skew) = match self {
@@ -117,7 +117,7 @@ impl fmt::Display for CloudKind {
 }
 
 /// Default geometry and optics of a [`CloudKind`], from [`CloudKind::defaults`]. The sources are
-/// in the [module docs](self).
+/// in the [`layers`](crate::layers) module docs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct KindDefaults {
     /// Cloud base, metres above ground.

@@ -1,6 +1,6 @@
 //! The extracted view the cloud passes share: what a camera's march needs from the main world
 //! ([`march_inputs`]), extracted each frame ([`ExtractedCloudView`]), and the GPU structs and
-//! buffers it is written to ([`GpuCloudUniforms`], [`GpuCloudLayer`], [`CloudViewBuffers`]).
+//! buffers it is written to (`GpuCloudUniforms`, `GpuCloudLayer`, `CloudViewBuffers`).
 //! The march, composite, weather-map and shadow passes read it; it imports none of them.
 
 use bevy::{

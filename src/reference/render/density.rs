@@ -314,7 +314,7 @@ pub(super) fn broad_look_up(n: u32, layer: &MarchLayer, x: [f64; 2]) -> [f64; 2]
 }
 
 /// The shape warp at weather texel `texel` (not wrapped), in shape periods per axis: the sum of
-/// two warps, both from the weather noise's curl ([`curl_look_up`]).
+/// two warps, both from the weather noise's curl (`curl_look_up`).
 ///
 /// - The fine warp, `±`[`SHAPE_WARP`] of the shape period: the curl of the texel itself. It
 ///   varies over the weather period, which is not a multiple of the shape period, so

@@ -38,7 +38,7 @@ pub const MAX_SUBSTEPS: u32 = 8;
 /// Most parts, cloudy or empty, a dense primary step is marched in.
 pub const MAX_PARTS: u32 = 32;
 
-/// How many times fewer light steps a sample past the cut-off takes (see [`light_steps_at`]).
+/// How many times fewer light steps a sample past the cut-off takes (see `light_steps_at`).
 pub const PAST_CUTOFF_LIGHT_STEP_DIVISOR: u32 = 4;
 
 /// The fewest light steps a sample past the cut-off, or deep enough in the cloud
@@ -49,7 +49,7 @@ pub const PAST_CUTOFF_MIN_LIGHT_STEPS: u32 = 4;
 /// sample's light steps fall in proportion to it, down to [`PAST_CUTOFF_MIN_LIGHT_STEPS`]: the
 /// sample's light reaches the camera times that transmittance, so an error in its sun's
 /// optical depth counts for that much less. With an early exit only (a cut-off of 0 keeps
-/// every light step, as the converged reference does). See [`light_steps_at`].
+/// every light step, as the converged reference does). See `light_steps_at`.
 pub const FULL_LIGHT_STEPS_TRANSMITTANCE: f64 = 0.25;
 
 /// A primary step thinner than this (optical thickness at its sample) counts as clear for the

@@ -8,9 +8,9 @@
 //! stopped at:
 //!
 //! - the march itself, at [`VolumetricClouds::resolution_scale`] below 1
-//!   ([`CloudLowResTargets`]); the upsample pass (`upsample.wgsl`) composites it;
+//!   (`CloudLowResTargets`); the upsample pass (`upsample.wgsl`) composites it;
 //! - the light-shaft factors, at [`VolumetricClouds::light_shaft_resolution_scale`]
-//!   ([`CloudShaftTarget`], see [`crate::render::haze`]); the march reads them.
+//!   (`CloudShaftTarget`, see [`crate::render::haze`]); the march reads them.
 //!
 //! Both are read with the same depth-aware weights (the shader library `composite.wgsl`), so
 //! values from rays that stopped at other geometry (the sky beside a hill) do not bleed over the
@@ -21,8 +21,8 @@
 //!
 //! With [`VolumetricClouds::temporal_blend`] below 1 and jitter on (every preset), the march
 //! always writes its targets (at any resolution scale), and `temporal.wgsl` blends them into a
-//! full-resolution history ([`CloudHistory`], two [`HISTORY_FORMAT`] textures that swap each
-//! frame, and two [`HISTORY_DISTANCE_FORMAT`] ones of where each pixel's ray ended): the new
+//! full-resolution history (`CloudHistory`, two `HISTORY_FORMAT` textures that swap each
+//! frame, and two `HISTORY_DISTANCE_FORMAT` ones of where each pixel's ray ended): the new
 //! frame at the pixel (upsampled as above) is mixed with the history found where the pixel's
 //! content was last frame, clamped to the new frame's 3 × 3 neighbourhood, where that history
 //! saw the surface this pixel's ray ends at
@@ -30,7 +30,7 @@
 //! coming out from behind a near object) the pixel takes the new frame alone, and where only
 //! the filter's reach crosses another surface, the history's 2 × 2 nearest texels.
 //! Reprojection uses the clouds' distance (the second channel of the distance target) and last
-//! frame's camera ([`ViewPose::clip_from_relative`], composed in f64 relative to this frame's
+//! frame's camera (`ViewPose::clip_from_relative`, composed in f64 relative to this frame's
 //! camera); the history is read with a Lanczos-3 filter, and a pixel whose content moved takes
 //! more of the new frame ([`moving_blend`]), so reprojecting every frame does not blur what the
 //! camera turns past. The `copy` entry of `upsample.wgsl` then composites the new history onto

@@ -1,4 +1,4 @@
-//! The volumetric ray-march: one fullscreen pass per camera with [`VolumetricClouds`].
+//! The volumetric ray-march: one fullscreen pass per camera with [`VolumetricClouds`](crate::render::VolumetricClouds).
 //!
 //! For each pixel the entry shader (`march.wgsl`) builds the view ray, ends it at scene geometry
 //! using the depth prepass (reverse-Z, infinite far plane: depth 0 is sky), and calls
@@ -19,13 +19,13 @@
 //! volumetric fog; transparent objects are therefore covered by clouds in front of the opaque
 //! depth behind them.
 //!
-//! At [`VolumetricClouds::resolution_scale`] below 1 the march renders `(L, T)` and the
+//! At [`VolumetricClouds::resolution_scale`](crate::render::VolumetricClouds::resolution_scale) below 1 the march renders `(L, T)` and the
 //! distance each ray stopped at into targets of the reduced size, and the depth-aware upsample
 //! of [`crate::render::composite`] composites them ([`CloudPassStats::views_upsampled`]
 //! counts these views).
 //!
 //! With light shafts, a second entry of the same shader (`shafts`, same bindings) runs first at
-//! [`VolumetricClouds::light_shaft_resolution_scale`]: it marches the haze along each ray,
+//! [`VolumetricClouds::light_shaft_resolution_scale`](crate::render::VolumetricClouds::light_shaft_resolution_scale): it marches the haze along each ray,
 //! reads the cloud shadow map at every sample and writes the ray's two shaft factors
 //! ([`crate::reference::haze::ShaftFactors`]) and its end distance. The march reads them back at
 //! binding 11 with the upsample's weights, so the full-resolution haze reads no shadow map
@@ -33,13 +33,15 @@
 //!
 //! # Inputs, from one source
 //!
-//! [`march_inputs`] turns a camera, its [`VolumetricClouds`] settings, the sun and the
-//! [`CloudLayer`]s into the reference's [`MarchSettings`] and [`MarchLayer`]s (f64), and the
+//! [`march_inputs`] turns a camera, its [`VolumetricClouds`](crate::render::VolumetricClouds) settings, the sun and the
+//! [`CloudLayer`](crate::layers::CloudLayer)s into the reference's
+//! [`MarchSettings`](crate::reference::render::MarchSettings) and
+//! [`MarchLayer`](crate::reference::render::MarchLayer)s (f64), and the
 //! GPU structs are converted from those with `From`. The CPU reference renderer and the GPU
 //! therefore see the same numbers, rounded to f32 only at the end. A layer with rain
-//! ([`CloudLayer::rain_mm_per_h`]) brings a second layer under it, from the ground to its base:
+//! ([`CloudLayer::rain_mm_per_h`](crate::layers::CloudLayer::rain_mm_per_h)) brings a second layer under it, from the ground to its base:
 //! the rain shafts (see `rain_shaft`). A layer's far coverages
-//! ([`CloudLayer::far_coverage`]) become [`MarchLayer::far`], relative to the camera.
+//! ([`CloudLayer::far_coverage`](crate::layers::CloudLayer::far_coverage)) become [`MarchLayer::far`](crate::reference::render::MarchLayer::far), relative to the camera.
 
 use std::borrow::Cow;
 
