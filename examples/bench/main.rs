@@ -29,7 +29,8 @@
 //! - `bench.svg`: error (relative RMSE, vertical, log scale 10⁻⁴ to 1) against time relative
 //!   to the reference (horizontal, log scale 10⁻³ to 1), a colour per preset and a marker per
 //!   scene, with a legend.
-//! - With `--docs DIR`: `DIR/performance.md` (the tables of both CSV files and the command) and
+//! - With `--docs DIR`: `DIR/performance.md` (the tables of the CSV files, with `peer.csv` from
+//!   `bench/peer/compare.sh` when the run's folder has one, and the command) and
 //!   `DIR/images/bench.svg`; `--from-csv RUN --docs DIR` writes them from a run's CSV files
 //!   (the crate's own run is in `docs/bench/`).
 //! - `images/SCENE_PRESET.png`: each render beside the reference, and a third panel with the
@@ -672,7 +673,13 @@ fn error_budget(scene: &Scene) {
 
 /// With `--docs DIR`: `DIR/performance.md` and `DIR/images/bench.svg` for `rows` and the
 /// `effects` CSV, with the command line that measured them.
-fn write_docs(args: &Args, rows: &[Row], effects: &str, times: Option<&str>) -> Result<(), String> {
+fn write_docs(
+    args: &Args,
+    rows: &[Row],
+    effects: &str,
+    times: Option<&str>,
+    peer: Option<&str>,
+) -> Result<(), String> {
     let Some(dir) = &args.docs else {
         return Ok(());
     };
@@ -700,7 +707,7 @@ fn write_docs(args: &Args, rows: &[Row], effects: &str, times: Option<&str>) -> 
     let path = dir.join("performance.md");
     std::fs::write(
         &path,
-        performance_md(rows, effects, times, &command, "images/bench.svg"),
+        performance_md(rows, effects, times, peer, &command, "images/bench.svg"),
     )
     .map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
@@ -975,11 +982,13 @@ fn run(args: &Args) -> Result<(), String> {
         let (csv_path, csv) = read("bench.csv")?;
         let (_, effects) = read("effects.csv")?;
         let times = read("times.csv").ok().map(|(_, text)| text);
+        let peer = read("peer.csv").ok().map(|(_, text)| text);
         return write_docs(
             args,
             &report::from_csv(&csv_path, &csv)?,
             &effects,
             times.as_deref(),
+            peer.as_deref(),
         );
     }
     if args.error_budget {
@@ -1080,7 +1089,8 @@ fn run(args: &Args) -> Result<(), String> {
     plot(&rows, &args.out.join("bench.svg"))?;
     print!("{csv}");
     let times = std::fs::read_to_string(args.out.join("times.csv")).ok();
-    write_docs(args, &rows, &effects, times.as_deref())
+    let peer = std::fs::read_to_string(args.out.join("peer.csv")).ok();
+    write_docs(args, &rows, &effects, times.as_deref(), peer.as_deref())
 }
 
 fn main() -> ExitCode {

@@ -213,6 +213,7 @@ pub fn performance_md(
     rows: &[Row],
     effects: &str,
     times: Option<&str>,
+    peer: Option<&str>,
     command: &str,
     plot: &str,
 ) -> String {
@@ -273,6 +274,16 @@ pub fn performance_md(
              compare the rows with each other, not with a GPU's milliseconds.\n\n",
         );
         push_csv_table(&mut md, times);
+    }
+    if let Some(peer) = peer {
+        md.push_str(
+            "\n## Against the peer crate\n\nThe cloud cost of `bevy-volumetric-clouds` 0.2 \
+             (Bevy 0.18; its clouds on minus off, the same view and window) beside each preset's \
+             `ms_per_frame` on `cumulus_noon`, measured on one machine in one run of \
+             `bench/peer/compare.sh` (`peer.csv`; `bench/peer/README.md`). `share_of_peer` is \
+             the preset's cost over the peer's.\n\n",
+        );
+        push_csv_table(&mut md, peer);
     }
     if effects.lines().next().is_some() {
         md.push_str(
