@@ -25,6 +25,7 @@ mod contract;
 pub mod growth;
 pub mod haze;
 pub mod march;
+mod node;
 pub mod noise;
 pub mod shadow;
 pub mod sky_light;
@@ -34,7 +35,7 @@ pub mod weather_map;
 
 use bevy::{
     camera::Hdr,
-    core_pipeline::prepass::DepthPrepass,
+    core_pipeline::{Core3dSystems, prepass::DepthPrepass, schedule::Core3d},
     prelude::*,
     render::{
         Render, RenderApp, RenderStartup, RenderSystems,
@@ -93,6 +94,16 @@ impl Plugin for CloudRenderPlugin {
             } else {
                 march::finish(render_app);
                 render_app
+                    .add_systems(
+                        Render,
+                        node::prepare_cloud_march_pipelines.in_set(RenderSystems::Prepare),
+                    )
+                    .add_systems(
+                        Core3d,
+                        node::march_cloud_layers
+                            .after(Core3dSystems::MainPass)
+                            .before(Core3dSystems::EarlyPostProcess),
+                    )
                     .init_resource::<SpecializedRenderPipelines<composite::CloudUpsamplePipeline>>()
                     .init_resource::<SpecializedRenderPipelines<composite::CloudTemporalPipeline>>()
                     .add_systems(
