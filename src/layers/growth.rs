@@ -3,8 +3,8 @@
 //! fed by two [`NoiseMaker`] fields, after Rosa 2013 ("Large-scale cloudscapes using noise",
 //! §3–4): the humidity field says where clouds may grow, the activation field where they start.
 //! With [`CloudGrowth::follow_coverage`] the probabilities follow the layer's coverage
-//! ([`GrowthSteering::probabilities`]): while the coverage rises, formation outweighs evaporation and new
-//! clouds appear and grow; while it falls, clouds evaporate.
+//! ([`GrowthSteering::probabilities`]): while the coverage rises, formation outweighs
+//! evaporation and new clouds appear and grow; while it falls, clouds evaporate.
 
 use bevy::prelude::*;
 
@@ -146,8 +146,8 @@ pub struct CloudGrowth {
     pub activation_probability: f32,
     /// Chance per step that a cloud cell evaporates (`p_ext`). Default 0.01.
     pub extinction_probability: f32,
-    /// Let the layer's coverage steer formation and evaporation ([`GrowthSteering::probabilities`]).
-    /// Default true.
+    /// Let the layer's coverage steer formation and evaporation
+    /// ([`GrowthSteering::probabilities`]). Default true.
     pub follow_coverage: bool,
     /// Automaton steps per hour of scene time. Default 120.
     pub steps_per_hour: f32,

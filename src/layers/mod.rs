@@ -59,9 +59,9 @@
 //!
 //! - **Altitudes** are typical mid-latitude heights inside the WMO étages (International Cloud
 //!   Atlas, WMO-No. 407: low étage from the surface to 2 km, middle 2–7 km, high 5–13 km in
-//!   temperate regions; the same bands as meteoblue's Packages API documentation (docs.meteoblue.com)). Cumulonimbus spans all
-//!   three étages, from a low base to an anvil near the tropopause (Thomann 2021 §3.3.10: "spanning
-//!   over the whole troposphere").
+//!   temperate regions; the same bands as meteoblue's Packages API documentation,
+//!   docs.meteoblue.com). Cumulonimbus spans all three étages, from a low base to an anvil near
+//!   the tropopause (Thomann 2021 §3.3.10: "spanning over the whole troposphere").
 //! - **Densities** are extinction coefficients from the geometric-optics relation
 //!   `σ ≈ 3·LWC / (2·ρ·r_e)` (Stephens 1978, extinction efficiency ≈ 2). LWC is the liquid (or
 //!   ice) water content, ρ the density of water (or ice) and `r_e` the effective droplet (or

@@ -35,10 +35,11 @@ const VALUES: usize = SCALARS + MAX_PROFILE_POINTS;
 /// Each update moves coverage, density, altitudes, coverage height, the weather-map period (as
 /// its inverse), wind, skew, shape noise, precipitation, rain, the far coverages and the density
 /// profile toward the target as a critically damped spring, `x'' = ω²(target − x) − 2ωx'` with
-/// `ω = 6.64 / duration_s`, so a new target picked midway keeps each value and its rate continuous. A change of kind morphs the
-/// profile and the kind's numbers, sampled at the heights the renderer samples, so it never
-/// jumps; the layer takes the target's [`CloudLayer::kind`] at once (the renderer reads only
-/// the numbers). When every value has arrived, the layer becomes an exact copy of the target.
+/// `ω = 6.64 / duration_s`, so a new target picked midway keeps each value and its rate
+/// continuous. A change of kind morphs the profile and the kind's numbers, sampled at the
+/// heights the renderer samples, so it never jumps; the layer takes the target's
+/// [`CloudLayer::kind`] at once (the renderer reads only the numbers). When every value has
+/// arrived, the layer becomes an exact copy of the target.
 ///
 /// While a transition is present it owns the layer: edits to the `CloudLayer` itself are
 /// overwritten on the next update. The first weather a slotted layer receives is a cut, so a

@@ -178,7 +178,8 @@ pub fn march_inputs<'a>(
 }
 
 /// One layer's march parameters, with noise offsets from the camera position plus wind drift,
-/// wrapped in f64 by each noise period.
+/// wrapped in f64 by each noise period. `layer` is sanitized ([`CloudLayer::sanitize`]), so its
+/// values are taken as they are.
 fn march_layer(
     world: &CloudWorld,
     layer: &CloudLayer,
@@ -194,8 +195,8 @@ fn march_layer(
         shape_scale_m: f64::from(world.shape_scale_m),
         detail_scale_m: f64::from(world.detail_scale_m),
         detail_erosion: f64::from(world.detail_erosion),
-        shape_strength: f64::from(layer.shape_noise.clamp(0.0, 1.0)),
-        precipitation: f64::from(layer.precipitation.clamp(0.0, 1.0)),
+        shape_strength: f64::from(layer.shape_noise),
+        precipitation: f64::from(layer.precipitation),
         coverage_height: f64::from(layer.coverage_height),
         ..default()
     };

@@ -21,8 +21,8 @@
 //! # Cost
 //!
 //! The default textures take 19.47 MB of GPU memory with mips (base 19.17 MB, detail 0.30 MB,
-//! at 8 bytes a texel) plus 0.26 MB for the weather noise. Generation is a one-off compute pass
-//! when the plugin starts.
+//! at 8 bytes a texel) plus 0.26 MB for the weather noise. Generation is a compute pass that runs
+//! once, and again only when [`CloudNoiseSettings`] change.
 //!
 //! # Platform limits
 //!
