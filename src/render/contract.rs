@@ -114,6 +114,8 @@ fn rust_constants() -> Vec<(&'static str, Vec<f64>)> {
             "FULL_LIGHT_STEPS_TRANSMITTANCE",
             scalar(FULL_LIGHT_STEPS_TRANSMITTANCE),
         ),
+        ("TOWARD_SUN_COS", scalar(TOWARD_SUN_COS)),
+        ("AWAY_FROM_SUN_COS", scalar(AWAY_FROM_SUN_COS)),
         ("CLEAR_STEP_OPTICAL_DEPTH", scalar(CLEAR_STEP_OPTICAL_DEPTH)),
         ("EDGE_SEARCH_STEPS", scalar(EDGE_SEARCH_STEPS.into())),
         ("PRECIPITATION_ABSORPTION", scalar(PRECIPITATION_ABSORPTION)),

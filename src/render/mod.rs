@@ -247,6 +247,13 @@ pub struct VolumetricClouds {
     /// paths are longest. `f32::INFINITY`, 0 or less, or NaN: no limit. Default 2 (`ULTRA` no
     /// limit).
     pub light_steps_per_footprint: f32,
+    /// Share of [`VolumetricClouds::light_steps`] a view ray 60° or more from the sun takes
+    /// (0–1): within about 32° of the sun a ray takes all of them, and linearly fewer between.
+    /// Away from the sun the phase function sends a sample's direct sunlight toward the camera
+    /// weakly, and its sky light and diffuse light, which depend far less on the sun's optical
+    /// depth, carry it, so an error in that depth costs the image little there. 1: every ray
+    /// takes every light step. Default 0.5 (`LOW` 0.7, `ULTRA` 1).
+    pub light_steps_away_from_sun: f32,
     /// Side of each layer's weather map, in weather-noise texels ([`weather_map`]): the march
     /// reads a layer's local coverage and the fine warp's curl from the map within
     /// `weather_map_size / 2` texels of the camera (12 km for cumulus at the default 512) and
@@ -267,19 +274,20 @@ pub struct VolumetricClouds {
 
 impl VolumetricClouds {
     /// The cheapest: [`VolumetricClouds::MEDIUM`]'s quarter resolution with 160 primary and 10
-    /// light steps, a 30 m shortest primary step, 8 haze steps and no light shafts. Measured
-    /// time and error: `docs/performance.md`.
+    /// light steps (7 for rays 60° or more from the sun), a 30 m shortest primary step, 8 haze
+    /// steps and no light shafts. Measured time and error: `docs/performance.md`.
     pub const LOW: Self = Self {
         primary_steps: 160,
         light_steps: 10,
+        light_steps_away_from_sun: 0.7,
         haze_steps: 8,
         light_shafts: false,
         min_step_m: 30.0,
         ..Self::MEDIUM
     };
     /// The default balance of speed and quality: a quarter of the resolution per axis with
-    /// temporal upsampling, 192 primary and 14 light steps (at most two extra light steps per
-    /// pixel footprint) on a sixteenth of the rays. Each
+    /// temporal upsampling, 192 primary and 14 light steps (7 for rays 60° or more from the sun,
+    /// at most two extra light steps per pixel footprint) on a sixteenth of the rays. Each
     /// frame the rays go through another pixel of their 4 × 4 block, and the accumulation
     /// assembles the full resolution over sixteen frames ([`composite::TemporalUpsampling`]). A
     /// still view converges close to a full-resolution march; while the camera moves the clouds
@@ -301,6 +309,7 @@ impl VolumetricClouds {
         sun_from_shadow_map_m: f32::INFINITY,
         min_step_m: 25.0,
         light_steps_per_footprint: 2.0,
+        light_steps_away_from_sun: 0.5,
         weather_map_size: crate::reference::weather_map::DEFAULT_WEATHER_MAP_SIZE,
         reset_history: false,
     };
@@ -326,6 +335,7 @@ impl VolumetricClouds {
         light_shaft_resolution_scale: 0.5,
         min_step_m: 5.0,
         light_steps_per_footprint: f32::INFINITY,
+        light_steps_away_from_sun: 1.0,
         ..Self::MEDIUM
     };
 }
@@ -383,6 +393,7 @@ impl VolumetricClouds {
     /// - `temporal_blend`: clamped to 0.02–1; NaN becomes 1 (no accumulation).
     /// - `sun_from_shadow_map_m`: NaN becomes `f32::INFINITY` (never); a negative value 0.
     /// - `min_step_m`: a negative or non-finite value becomes 0 (every primary step marched).
+    /// - `light_steps_away_from_sun`: clamped to 0–1; NaN becomes 1 (every light step).
     ///
     /// `light_steps_per_footprint` takes any value (NaN, 0 or less, or infinity: no limit).
     pub fn sanitize(&mut self) {
@@ -415,6 +426,7 @@ impl VolumetricClouds {
             self.sun_from_shadow_map_m.max(0.0)
         };
         self.min_step_m = non_negative(self.min_step_m);
+        self.light_steps_away_from_sun = clamp_or(self.light_steps_away_from_sun, 0.0, 1.0, 1.0);
     }
 }
 
@@ -506,6 +518,10 @@ mod tests {
         check(
             |c| &mut c.min_step_m,
             &[(-5.0, 0.0), (nan, 0.0), (inf, 0.0)],
+        );
+        check(
+            |c| &mut c.light_steps_away_from_sun,
+            &[(nan, 1.0), (-1.0, 0.0), (2.0, 1.0), (0.5, 0.5)],
         );
     }
 }

@@ -128,6 +128,7 @@ pub fn march_inputs<'a>(
         } else {
             0.0
         },
+        light_steps_away_from_sun: f64::from(settings.light_steps_away_from_sun),
         sun_from_shadow_map_m: if settings.sun_from_shadow_map_m.is_nan() {
             f64::INFINITY
         } else {
@@ -300,7 +301,7 @@ pub(crate) struct GpuCloudUniforms {
     sample_offset_uv: Vec2,
     march_uv_scale: Vec2,
     light_steps_per_footprint: f32,
-    _pad1: u32,
+    light_steps_away_from_sun: f32,
     _pad2: UVec2,
     camera_up: Vec4,
     sun_direction: Vec4,
@@ -373,7 +374,12 @@ impl GpuCloudUniforms {
             } else {
                 0.0
             },
-            _pad1: 0,
+            // As `ray_light_steps` reads it: clamped to 0-1, NaN 1.
+            light_steps_away_from_sun: if settings.light_steps_away_from_sun.is_nan() {
+                1.0
+            } else {
+                settings.light_steps_away_from_sun.clamp(0.0, 1.0) as f32
+            },
             _pad2: UVec2::ZERO,
             camera_up: vec4(settings.camera_up),
             sun_direction: vec4(settings.sun_direction),

@@ -52,6 +52,15 @@ pub const PAST_CUTOFF_MIN_LIGHT_STEPS: u32 = 4;
 /// every light step, as the converged reference does). See `light_steps_at`.
 pub const FULL_LIGHT_STEPS_TRANSMITTANCE: f64 = 0.25;
 
+/// A view ray within about 32° of the sun (the cosine of the angle at least this) takes all of
+/// [`MarchSettings::light_steps`] ([`ray_light_steps`]).
+pub const TOWARD_SUN_COS: f64 = 0.85;
+
+/// A view ray 60° or more from the sun (the cosine at most this) takes the share
+/// [`MarchSettings::light_steps_away_from_sun`] of [`MarchSettings::light_steps`]
+/// ([`ray_light_steps`]).
+pub const AWAY_FROM_SUN_COS: f64 = 0.5;
+
 /// A primary step thinner than this (optical thickness at its sample) counts as clear for the
 /// edge search of the dense step after it.
 pub const CLEAR_STEP_OPTICAL_DEPTH: f64 = 0.1;
@@ -168,6 +177,8 @@ struct Ray<'a> {
     horizontal_direction: [f64; 2],
     /// Cosine of the angle between the view ray and the sun, for the phase function.
     cos_sun: f64,
+    /// The light steps of the ray's samples before `light_steps_at` ([`ray_light_steps`]).
+    light_steps: u32,
     /// The δ-Eddington constants of the settings' phase.
     phase: EddingtonPhase,
     sun_on: bool,
@@ -453,7 +464,7 @@ impl Ray<'_> {
         );
         let mut sun_optical_depth_at = None;
         let light_steps = light_steps_at(
-            settings.light_steps,
+            self.light_steps,
             self.transmittance,
             self.cutoff_transmittance(),
             settings.transmittance_cutoff,
@@ -655,6 +666,7 @@ pub fn march_clouds(
         return MarchResult::CLEAR;
     }
     let axes = horizontal_axes(up);
+    let cos_sun = dot(direction, settings.sun_direction).clamp(-1.0, 1.0);
     let mut ray = Ray {
         textures,
         shadow,
@@ -665,7 +677,12 @@ pub fn march_clouds(
         mu,
         direction,
         horizontal_direction: [dot(direction, axes[0]), dot(direction, axes[1])],
-        cos_sun: dot(direction, settings.sun_direction).clamp(-1.0, 1.0),
+        cos_sun,
+        light_steps: ray_light_steps(
+            settings.light_steps,
+            cos_sun,
+            settings.light_steps_away_from_sun,
+        ),
         phase: eddington_phase(settings),
         sun_on: settings.sun_illuminance.iter().any(|&e| e > 0.0),
         jitter: saturate(jitter),
@@ -703,6 +720,30 @@ pub fn march_clouds(
         transmittance: ray.transmittance,
         distance_m: ray.distance(),
     }
+}
+
+/// The light steps of a view ray's samples (before [`light_steps_at`]) for a ray at `cos_sun`
+/// (the cosine of its angle to the sun): all of `light_steps` within about 32° of the sun
+/// ([`TOWARD_SUN_COS`]), the share `away_share` (clamped to 0–1, NaN: 1) of them from 60° on
+/// ([`AWAY_FROM_SUN_COS`]), linear between, rounded up, at least 1 (0 for 0). An error in a
+/// sample's sun optical depth changes its light in proportion to the phase function toward the
+/// camera, which away from the sun is a small share of what it is near it: there the sky light
+/// and the diffuse light, which the optical depth changes far less, carry the sample, and fewer
+/// light steps cost the image little. Computed in f32 on both sides. WGSL twin: `ray_light_steps`.
+pub fn ray_light_steps(light_steps: u32, cos_sun: f64, away_share: f64) -> u32 {
+    let away = if away_share.is_nan() {
+        1.0
+    } else {
+        away_share.clamp(0.0, 1.0) as f32
+    };
+    let toward = ((cos_sun as f32 - AWAY_FROM_SUN_COS as f32)
+        / (TOWARD_SUN_COS as f32 - AWAY_FROM_SUN_COS as f32))
+        .clamp(0.0, 1.0);
+    let share = away + (1.0 - away) * toward;
+    if light_steps == 0 {
+        return 0;
+    }
+    ((light_steps as f32 * share).ceil() as u32).clamp(1, light_steps)
 }
 
 /// The light steps of a sample, from the view ray's `transmittance` and `cutoff_transmittance`

@@ -7,7 +7,8 @@ use super::BROAD_WARP_PERIODS;
 use super::{
     LIGHT_STEP_SPAN_M, PRECIPITATION_ABSORPTION, SHADOW_MAP_NEAR_STEPS, SHADOW_MAP_NEAR_TEXELS,
     coverage_height_scale, density_at, horizontal_axes, interval_steps, layer_coverage,
-    light_step_count, march_clouds, patch_fill, ray_start_jitter, sample_source, shape_warp,
+    light_step_count, march_clouds, patch_fill, ray_light_steps, ray_start_jitter, sample_source,
+    shape_warp,
 };
 #[cfg(doc)]
 use crate::reference::shadow::ShadowMapImage;
@@ -100,6 +101,10 @@ pub struct MarchSettings {
     /// footprint, so light steps much shorter than it resample the same blur. Never fewer than
     /// [`MarchSettings::light_steps`]. Infinity (the default), 0 or less, or NaN: no limit.
     pub light_steps_per_footprint: f64,
+    /// Share of [`MarchSettings::light_steps`] a view ray 60° or more from the sun takes, 0–1
+    /// (all of them within about 32° of it, linear between: [`ray_light_steps`]). Default 1:
+    /// every ray takes them all.
+    pub light_steps_away_from_sun: f64,
 }
 
 impl Default for MarchSettings {
@@ -127,6 +132,7 @@ impl Default for MarchSettings {
             sun_from_shadow_map_m: f64::INFINITY,
             min_step_m: 0.0,
             light_steps_per_footprint: f64::INFINITY,
+            light_steps_away_from_sun: 1.0,
         }
     }
 }

@@ -401,6 +401,66 @@ fn phase_and_jitter_stay_in_range() {
     assert!((step_warp(0.5, 3.0) - 1.0 / 3.0).abs() < 1e-15);
 }
 
+/// A view ray far from the sun takes the share `light_steps_away_from_sun` of the light steps,
+/// one near it all of them ([`ray_light_steps`]), and the march follows: toward the sun the
+/// image is the same, away from it the ray's samples are lit with fewer steps.
+#[test]
+fn rays_away_from_the_sun_take_fewer_light_steps() {
+    assert_eq!(ray_light_steps(14, 1.0, 0.5), 14);
+    assert_eq!(ray_light_steps(14, TOWARD_SUN_COS, 0.5), 14);
+    assert_eq!(ray_light_steps(14, AWAY_FROM_SUN_COS, 0.5), 7);
+    assert_eq!(ray_light_steps(14, -1.0, 0.5), 7);
+    // Halfway between: three quarters of 14, rounded up.
+    let between = 0.5 * (TOWARD_SUN_COS + AWAY_FROM_SUN_COS);
+    assert_eq!(ray_light_steps(14, between, 0.5), 11);
+    assert_eq!(ray_light_steps(14, -1.0, 0.0), 1);
+    assert_eq!(ray_light_steps(14, -1.0, 1.0), 14);
+    assert_eq!(ray_light_steps(14, -1.0, f64::NAN), 14);
+    assert_eq!(ray_light_steps(14, -1.0, 7.0), 14);
+    assert_eq!(ray_light_steps(0, -1.0, 0.5), 0);
+
+    let layers = [cumulus(0.6)];
+    let march = |direction: [f64; 3], away: f64| {
+        let settings = MarchSettings {
+            light_steps: 14,
+            jitter: false,
+            light_steps_away_from_sun: away,
+            ..MarchSettings::default()
+        };
+        march_clouds(
+            textures(),
+            &settings,
+            &layers,
+            0.0,
+            UP,
+            direction,
+            f64::INFINITY,
+            0.5,
+            None,
+        )
+    };
+    let sun = MarchSettings::default().sun_direction;
+    assert_eq!(march(sun, 0.5), march(sun, 1.0));
+    // Rays 20° to 80° up, all around the horizon; those 60° or more from the sun that cross
+    // cloud.
+    let away: Vec<[f64; 3]> = (0..7 * 36)
+        .map(|k| {
+            let e = f64::from(20 + 10 * (k / 36)).to_radians();
+            let a = f64::from(10 * (k % 36)).to_radians();
+            [e.cos() * a.cos(), e.sin(), e.cos() * a.sin()]
+        })
+        .filter(|d| dot(*d, sun) <= AWAY_FROM_SUN_COS && march(*d, 1.0).transmittance < 0.9)
+        .collect();
+    assert!(!away.is_empty(), "no cloudy ray away from the sun");
+    for direction in away {
+        assert_ne!(
+            march(direction, 0.5),
+            march(direction, 1.0),
+            "{direction:?}"
+        );
+    }
+}
+
 /// A low sun's light march: its path through the layer is many kilometres long, so it takes
 /// more steps ([`light_step_count`]), sampled at the steps' midpoints
 /// ([`LIGHT_SAMPLE_OFFSET`]), and comes close to a converged light march. A far sample

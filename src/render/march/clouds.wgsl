@@ -67,6 +67,10 @@ const PAST_CUTOFF_MIN_LIGHT_STEPS: u32 = 4u;
 // `FULL_LIGHT_STEPS_TRANSMITTANCE`).
 const FULL_LIGHT_STEPS_TRANSMITTANCE: f32 = 0.25;
 const CLEAR_STEP_OPTICAL_DEPTH: f32 = 0.1;
+// A view ray within about 32 degrees of the sun takes every light step, one 60 degrees or more
+// away the share `light_steps_away_from_sun` (Rust: `TOWARD_SUN_COS`, `AWAY_FROM_SUN_COS`).
+const TOWARD_SUN_COS: f32 = 0.85;
+const AWAY_FROM_SUN_COS: f32 = 0.5;
 const EDGE_SEARCH_STEPS: u32 = 6u;
 
 // GPU only: the light march is deferred. A sample's source needs its light march toward the
@@ -112,6 +116,8 @@ struct MarchRay {
     direction: vec3<f32>,
     horizontal_direction: vec2<f32>,
     cos_sun: f32,
+    // The light steps of the ray's samples before `light_steps_at` (`ray_light_steps`).
+    light_steps: u32,
     sun_on: bool,
     jitter: f32,
     // Optical depth so far, summed rather than multiplying exp(-x) into the transmittance,
@@ -338,6 +344,18 @@ fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32, clear_from: f32) -
     return x;
 }
 
+// The light steps of a view ray's samples (before `light_steps_at`) at `cos_sun`: all of
+// light_steps within TOWARD_SUN_COS, the share `away_share` (0-1, clamped on the CPU) from
+// AWAY_FROM_SUN_COS on, linear between, rounded up, at least 1 (0 for 0). Rust: `ray_light_steps`.
+fn ray_light_steps(light_steps: u32, cos_sun: f32, away_share: f32) -> u32 {
+    let toward = saturate((cos_sun - AWAY_FROM_SUN_COS) / (TOWARD_SUN_COS - AWAY_FROM_SUN_COS));
+    let share = away_share + (1.0 - away_share) * toward;
+    if light_steps == 0u {
+        return 0u;
+    }
+    return clamp(u32(ceil(f32(light_steps) * share)), 1u, light_steps);
+}
+
 // The light steps of a sample from the view ray's transmittance and cut-off transmittance
 // before it: a quarter of them, at least PAST_CUTOFF_MIN_LIGHT_STEPS (or all when there are
 // fewer), past the true medium's cut-off; with an early exit, in proportion to the cut-off
@@ -367,7 +385,7 @@ fn integrate_step(ray: ptr<function, MarchRay>, t: f32, dt: f32, medium: Medium,
     let weight = (*ray).transmittance * dt * mean_step_transmittance(x);
     let scaled_weight = exp(-scaled * (*ray).optical_depth) * dt * mean_step_transmittance(scaled * x);
     // Deep in the cloud, and past the true medium's cut-off, fewer light steps.
-    let light_steps = light_steps_at(clouds.light_steps, (*ray).transmittance, cutoff_transmittance(ray), clouds.transmittance_cutoff);
+    let light_steps = light_steps_at((*ray).light_steps, (*ray).transmittance, cutoff_transmittance(ray), clouds.transmittance_cutoff);
     light_queue[queued] = QueuedSample(medium.ambient, t, medium.scattering, medium.column_above, medium.column_below, extinction, share * weight, share * scaled_weight, light_steps);
     (*ray).tail_a = queued;
     (*ray).tail_share_a = 1.0;
@@ -548,13 +566,15 @@ fn march_clouds(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter:
     }
     let axes = horizontal_axes(up);
     let sun = clouds.sun_illuminance.xyz;
+    let cos_sun = clamp(dot(direction, clouds.sun_direction.xyz), -1.0, 1.0);
     var ray = MarchRay(
         h,
         up,
         mu,
         direction,
         vec2<f32>(dot(direction, axes.x), dot(direction, axes.z)),
-        clamp(dot(direction, clouds.sun_direction.xyz), -1.0, 1.0),
+        cos_sun,
+        ray_light_steps(clouds.light_steps, cos_sun, clouds.light_steps_away_from_sun),
         any(sun > vec3<f32>(0.0)),
         saturate(jitter),
         0.0,

@@ -61,7 +61,9 @@ struct CloudUniforms {
     // Most extra light steps per view-sample footprint (Rust:
     // `MarchSettings::light_steps_per_footprint`; 0: no limit).
     light_steps_per_footprint: f32,
-    pad_b: u32,
+    // Share of light_steps a view ray 60 degrees or more from the sun takes (Rust:
+    // `MarchSettings::light_steps_away_from_sun`; `ray_light_steps`).
+    light_steps_away_from_sun: f32,
     pad_c: vec2<u32>,
     // xyz: unit vector from the planet centre through the camera.
     camera_up: vec4<f32>,
