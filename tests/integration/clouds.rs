@@ -376,6 +376,7 @@ fn hard_cases_stay_finite_and_physical() {
         resolution: 32,
         extent_m: 20_000.0,
         steps: 4,
+        ..default()
     });
     let cumulus = layer(CloudKind::Cumulus, 0.6);
     let (base, top) = (f64::from(cumulus.base_m), f64::from(cumulus.top_m));

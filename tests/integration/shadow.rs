@@ -138,6 +138,7 @@ fn shadow_map_matches_the_cpu_reference_and_clears_at_night() {
         resolution: 48,
         extent_m: 16_000.0,
         steps: 8,
+        ..default()
     });
     rig.set_scene(&shadow_scene((30.0, 180.0)));
     rig.app.run_frames(4);
@@ -164,6 +165,25 @@ fn shadow_map_matches_the_cpu_reference_and_clears_at_night() {
     // 8-bit storage (±0.002) plus lavapipe's 8-bit filtering of the 3D noise.
     assert!(mean < 0.01, "mean error {mean}");
     assert!(max < 0.1, "max error {max}");
+
+    // A still view marches a quarter of the rows each frame (`update_frames` 4 by default),
+    // and the map stays the CPU's.
+    let before = *rig.app.render_world().resource::<CloudShadowStats>();
+    rig.app.run_frames(4);
+    let after = *rig.app.render_world().resource::<CloudShadowStats>();
+    assert_eq!(after.passes - before.passes, 4, "one pass a frame");
+    assert_eq!(
+        after.rows - before.rows,
+        u64::from(size),
+        "every row once in 4 frames"
+    );
+    let (_, amortized) = read_shadow_map(&mut rig);
+    let max = amortized
+        .iter()
+        .zip(&cpu)
+        .map(|(g, c)| (g - c).abs())
+        .fold(0.0, f64::max);
+    assert!(max < 0.1, "max error after amortized passes {max}");
 
     // Night: no pass, and the map is reset to 1 once.
     rig.set_scene(&shadow_scene((-10.0, 180.0)));
@@ -323,6 +343,7 @@ fn ground_ratios_and_map(name: &str, resolution: u32, fov_deg: f32) -> GroundSha
             resolution,
             extent_m: 8_000.0,
             steps: 8,
+            ..default()
         },
     );
     let (with_shadows, without, map_size, map) = shadowed_ground(&mut rig, fov_deg);
@@ -425,6 +446,7 @@ fn light_shafts_follow_the_cloud_shadow_map() {
         resolution: 128,
         extent_m: 30_000.0,
         steps: 8,
+        ..default()
     });
     rig.app
         .world()
@@ -531,6 +553,7 @@ fn far_cloud_samples_take_the_sun_from_the_shadow_map() {
         resolution: 256,
         extent_m: 40_000.0,
         steps: 48,
+        ..default()
     });
     let scene = Scene {
         name: "sun_from_map",

@@ -44,8 +44,11 @@
 //!
 //! # What a frame costs
 //!
-//! One dispatch of `resolution²` threads, each marching `steps` samples per layer it crosses,
-//! twice (the whole optical depth first, then where it crosses the knots).
+//! One dispatch of `resolution² / update_frames` threads, each marching `steps` samples per
+//! layer it crosses, twice (the whole optical depth first, then where it crosses the knots):
+//! [`CloudShadows::update_frames`] spreads the map over that many frames, a row in every
+//! `update_frames` each frame, while the map stays where it is; a frame that places it anew
+//! marches it whole.
 //! With no visible layer, with the sun at or below the horizon, or with the shadows disabled, no
 //! pass runs: the map is set to 1 (no shadow) once, with an upload, and left alone
 //! ([`CloudShadowStats`] counts both).
@@ -110,6 +113,13 @@ pub struct CloudShadows {
     pub extent_m: f32,
     /// Samples per layer along each sun line, 1–64. Default 12.
     pub steps: u32,
+    /// Frames over which the map is marched anew, 1–16: each frame marches every
+    /// `update_frames`-th row of texels, the next row each frame, so no texel is more than that
+    /// many frames old and the pass costs that many times less. The clouds drift and change
+    /// over seconds, far slower than a few frames. A new placement of the map (the camera
+    /// moved by a texel, the sun moved, another size or extent, a layer appeared or went) marches
+    /// it whole that frame. Default 4; 1 marches every texel every frame.
+    pub update_frames: u32,
 }
 
 impl Default for CloudShadows {
@@ -119,13 +129,14 @@ impl Default for CloudShadows {
             resolution: 256,
             extent_m: 40_000.0,
             steps: 12,
+            update_frames: 4,
         }
     }
 }
 
 impl CloudShadows {
     /// The settings clamped to what the pass supports: resolution 16–4096, steps 1–64, a
-    /// positive finite extent (else the default).
+    /// positive finite extent (else the default), update frames 1–16.
     pub fn sanitized(&self) -> Self {
         Self {
             enabled: self.enabled,
@@ -136,6 +147,7 @@ impl CloudShadows {
                 Self::default().extent_m
             },
             steps: self.steps.clamp(1, MAX_SHADOW_STEPS),
+            update_frames: self.update_frames.clamp(1, MAX_UPDATE_FRAMES),
         }
     }
 }
@@ -158,6 +170,9 @@ pub struct CloudShadowMap {
 pub struct CloudShadowStats {
     /// Frames in which the map was marched.
     pub passes: u64,
+    /// Rows of texels marched, over all passes (a whole map is `resolution` rows;
+    /// [`CloudShadows::update_frames`]).
+    pub rows: u64,
     /// Times the map was reset to "no shadow" (night, no layers, disabled) without a pass.
     pub clears: u64,
 }
@@ -391,6 +406,11 @@ enum ShadowJob {
         layers: Vec<MarchLayer>,
         frame: ShadowMapFrame,
         steps: u32,
+        /// [`CloudShadows::update_frames`], sanitized.
+        update_frames: u32,
+        /// What places the map's texels in the world and what they hold: a change marches
+        /// the whole map.
+        placement: Box<MapPlacement>,
     },
     /// No shadow anywhere (night, no visible layer): make the map 1 if it is not.
     Clear { image: AssetId<Image> },
@@ -398,6 +418,57 @@ enum ShadowJob {
 
 #[derive(Resource, Default)]
 struct ExtractedCloudShadow(Option<ShadowJob>);
+
+/// Most frames [`CloudShadows::update_frames`] spreads the map over.
+const MAX_UPDATE_FRAMES: u32 = 16;
+
+/// Where the map's texels lie in the world (the sun light's snapped centre and axes), how many
+/// and how finely marched, the layers' altitudes and how many layers: while these hold, a texel
+/// marched a few frames ago still holds its sun line ([`MapPlacement::holds`]).
+#[derive(Clone, Debug, PartialEq)]
+struct MapPlacement {
+    /// The light's world translation (the map centre, snapped to texels).
+    centre: Vec3,
+    /// The light's x and y axes (half the map's extent each) and its z axis.
+    axes: [Vec3; 3],
+    size: u32,
+    steps: u32,
+    cloud_range_m: [f64; 2],
+    layers: usize,
+}
+
+/// How far a sun line of the map may move, in texels, before its texel must be marched again.
+const MAP_SHIFT_TEXELS: f32 = 0.25;
+
+impl MapPlacement {
+    /// Whether texels marched at `self` still hold the sun lines of `now`: the same centre,
+    /// size, steps, layers and cloud range, and axes that moved no sun line through the clouds
+    /// by [`MAP_SHIFT_TEXELS`] or more (a sun that moves with the clock turns them a little
+    /// each frame).
+    fn holds(&self, now: &Self) -> bool {
+        if (
+            self.centre,
+            self.size,
+            self.steps,
+            self.cloud_range_m,
+            self.layers,
+        ) != (
+            now.centre,
+            now.size,
+            now.steps,
+            now.cloud_range_m,
+            now.layers,
+        ) {
+            return false;
+        }
+        let texel = 2.0 * self.axes[0].length().min(self.axes[1].length()) / self.size as f32;
+        let tilt = (self.axes[2].normalize_or_zero() - now.axes[2].normalize_or_zero()).length();
+        let moved = (self.axes[0] - now.axes[0]).length()
+            + (self.axes[1] - now.axes[1]).length()
+            + tilt * self.cloud_range_m[1].abs() as f32;
+        moved < MAP_SHIFT_TEXELS * texel
+    }
+}
 
 #[doc(hidden)]
 /// The inputs of the shadow map, from the same numbers the view march uses: the march settings
@@ -502,19 +573,34 @@ fn extract_cloud_shadow(
                 frame,
                 camera_m: camera.translation().as_dvec3(),
             });
+            let matrix = light_transform.affine().matrix3;
+            let placement = MapPlacement {
+                centre: light_transform.translation(),
+                axes: [
+                    matrix.x_axis.into(),
+                    matrix.y_axis.into(),
+                    matrix.z_axis.into(),
+                ],
+                size: frame.size,
+                steps: settings.sanitized().steps,
+                cloud_range_m: frame.cloud_range_m,
+                layers: layers.len(),
+            };
             Some(ShadowJob::March {
                 image,
                 settings: Box::new(march),
                 layers,
                 frame,
                 steps: settings.sanitized().steps,
+                update_frames: settings.sanitized().update_frames,
+                placement: Box::new(placement),
             })
         }
         _ => clear,
     };
 }
 
-/// The shadow uniform, laid out as `ShadowUniforms` in `shadow.wgsl` (80 bytes).
+/// The shadow uniform, laid out as `ShadowUniforms` in `shadow.wgsl` (96 bytes).
 #[derive(ShaderType, Clone, Debug, Default)]
 pub(crate) struct GpuShadowUniforms {
     centre_m: Vec4,
@@ -523,12 +609,17 @@ pub(crate) struct GpuShadowUniforms {
     size: u32,
     steps: u32,
     footprint_m: f32,
-    pad: u32,
+    /// This pass marches the rows `row_offset + k · row_stride`.
+    row_stride: u32,
     cloud_range_m: Vec4,
+    row_offset: u32,
+    _pad_a: u32,
+    _pad_b: u32,
+    _pad_c: u32,
 }
 
 impl GpuShadowUniforms {
-    fn new(frame: &ShadowMapFrame, steps: u32) -> Self {
+    fn new(frame: &ShadowMapFrame, steps: u32, rows: MapRows) -> Self {
         let v = |a: [f64; 3]| Vec4::new(a[0] as f32, a[1] as f32, a[2] as f32, 0.0);
         Self {
             centre_m: v(frame.centre_m),
@@ -537,13 +628,17 @@ impl GpuShadowUniforms {
             size: frame.size,
             steps,
             footprint_m: frame.fine_texel_m() as f32,
-            pad: 0,
+            row_stride: rows.stride,
             cloud_range_m: Vec4::new(
                 frame.cloud_range_m[0] as f32,
                 frame.cloud_range_m[1] as f32,
                 0.0,
                 0.0,
             ),
+            row_offset: rows.offset,
+            _pad_a: 0,
+            _pad_b: 0,
+            _pad_c: 0,
         }
     }
 }
@@ -589,6 +684,41 @@ fn init_cloud_shadow_pipeline(
 #[derive(Resource, Default)]
 struct ShadowMapState {
     dirty: Option<AssetId<Image>>,
+    /// The image and placement of the last whole pass, and the rows the last pass marched:
+    /// the next pass marches the next rows while that placement holds.
+    last: Option<(AssetId<Image>, MapPlacement, MapRows)>,
+}
+
+/// The rows of the map a pass marches: `offset`, `offset + stride`, … below the map's size.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct MapRows {
+    offset: u32,
+    stride: u32,
+}
+
+impl MapRows {
+    const ALL: Self = Self {
+        offset: 0,
+        stride: 1,
+    };
+
+    /// The rows after `last` (None: the whole map) of a map marched over `update_frames`
+    /// frames.
+    fn next(last: Option<Self>, update_frames: u32) -> Self {
+        let stride = update_frames.clamp(1, MAX_UPDATE_FRAMES);
+        match last {
+            Some(last) if stride > 1 => Self {
+                offset: (last.offset + 1) % stride,
+                stride,
+            },
+            _ => Self::ALL,
+        }
+    }
+
+    /// How many rows of a map `size` texels high these are.
+    fn count(self, size: u32) -> u32 {
+        size.saturating_sub(self.offset).div_ceil(self.stride)
+    }
 }
 
 /// This frame's dispatch, made by [`prepare_cloud_shadow`].
@@ -596,6 +726,9 @@ struct ShadowMapState {
 struct PreparedCloudShadow {
     bind_group: BindGroup,
     size: u32,
+    rows: MapRows,
+    /// The placement of the last whole pass (this one's when it is whole).
+    placement: MapPlacement,
     image: AssetId<Image>,
 }
 
@@ -634,6 +767,7 @@ fn prepare_cloud_shadow(
                 size,
             );
             state.dirty = None;
+            state.last = None;
             stats.clears += 1;
         }
         Some(ShadowJob::March {
@@ -642,6 +776,8 @@ fn prepare_cloud_shadow(
             layers,
             frame,
             steps,
+            update_frames,
+            placement,
         }) => {
             let (Some(pipeline), Some(noise), Some(gpu)) = (pipeline, noise, images.get(*image))
             else {
@@ -659,7 +795,18 @@ fn prepare_cloud_shadow(
             cloud_uniforms.write_buffer(&device, &queue);
             let mut layer_buffer = StorageBuffer::from(gpu_layers);
             layer_buffer.write_buffer(&device, &queue);
-            let mut shadow_uniforms = UniformBuffer::from(GpuShadowUniforms::new(frame, *steps));
+            // The next rows while the map stays where it was, else the whole map.
+            let (previous, whole) = match &state.last {
+                Some((last_image, whole, rows))
+                    if last_image == image && whole.holds(placement.as_ref()) =>
+                {
+                    (Some(*rows), whole.clone())
+                }
+                _ => (None, placement.as_ref().clone()),
+            };
+            let rows = MapRows::next(previous, *update_frames);
+            let mut shadow_uniforms =
+                UniformBuffer::from(GpuShadowUniforms::new(frame, *steps, rows));
             shadow_uniforms.write_buffer(&device, &queue);
             let (Some(cloud_uniforms), Some(layer_buffer), Some(shadow_uniforms)) = (
                 cloud_uniforms.binding(),
@@ -685,6 +832,8 @@ fn prepare_cloud_shadow(
             commands.insert_resource(PreparedCloudShadow {
                 bind_group,
                 size: frame.size,
+                rows,
+                placement: whole,
                 image: *image,
             });
         }
@@ -718,13 +867,15 @@ fn generate_cloud_shadow(
         });
         pass.set_pipeline(compute);
         pass.set_bind_group(0, &prepared.bind_group, &[]);
-        let groups = prepared.size.div_ceil(8);
-        pass.dispatch_workgroups(groups, groups, 1);
+        let rows = prepared.rows.count(prepared.size);
+        pass.dispatch_workgroups(prepared.size.div_ceil(8), rows.div_ceil(8), 1);
     }
     encoder.pop_debug_group();
     time_span.end(ctx.command_encoder());
     state.dirty = Some(prepared.image);
+    state.last = Some((prepared.image, prepared.placement.clone(), prepared.rows));
     stats.passes += 1;
+    stats.rows += u64::from(prepared.rows.count(prepared.size));
 }
 
 #[cfg(test)]
@@ -733,7 +884,7 @@ mod tests {
 
     #[test]
     fn uniform_layout_matches_the_shader() {
-        assert_eq!(GpuShadowUniforms::min_size().get(), 80);
+        assert_eq!(GpuShadowUniforms::min_size().get(), 96);
     }
 
     #[test]
@@ -743,11 +894,79 @@ mod tests {
             resolution: 1,
             extent_m: f32::NAN,
             steps: 1000,
+            update_frames: 0,
         }
         .sanitized();
         assert_eq!(wild.resolution, 16);
         assert_eq!(wild.extent_m, CloudShadows::default().extent_m);
         assert_eq!(wild.steps, MAX_SHADOW_STEPS);
+        assert_eq!(wild.update_frames, 1);
+        let many = CloudShadows {
+            update_frames: 1000,
+            ..default()
+        };
+        assert_eq!(many.sanitized().update_frames, MAX_UPDATE_FRAMES);
+    }
+
+    /// A placement holds while the sun turns its sun lines by less than a quarter texel, and not
+    /// after the map's centre moves by a texel.
+    #[test]
+    fn a_placement_holds_while_its_sun_lines_stay_in_their_texels() {
+        // 40 km over 256 texels: 156 m texels; clouds up to 3 km.
+        let placement = |angle: f32, centre: Vec3| {
+            let rotation = Quat::from_rotation_x(-1.0 - angle);
+            MapPlacement {
+                centre,
+                axes: [
+                    rotation * Vec3::X * 20_000.0,
+                    rotation * Vec3::Y * 20_000.0,
+                    rotation * Vec3::Z,
+                ],
+                size: 256,
+                steps: 12,
+                cloud_range_m: [1_500.0, 3_000.0],
+                layers: 1,
+            }
+        };
+        let base = placement(0.0, Vec3::ZERO);
+        assert!(base.holds(&base));
+        // The sun turning 1e-6 rad moves the 20 km y axis by 2 cm: holds. 1e-3 rad moves it by
+        // 20 m and the sun lines at the cloud tops by 3 m, under a quarter of a 156 m texel;
+        // 2e-3 rad twice that, over it.
+        assert!(base.holds(&placement(1e-6, Vec3::ZERO)));
+        assert!(base.holds(&placement(1e-3, Vec3::ZERO)));
+        assert!(!base.holds(&placement(2e-3, Vec3::ZERO)));
+        assert!(!base.holds(&placement(0.0, Vec3::new(156.25, 0.0, 0.0))));
+        let more_layers = MapPlacement {
+            layers: 2,
+            ..base.clone()
+        };
+        assert!(!base.holds(&more_layers));
+    }
+
+    /// Over `update_frames` passes of an unmoved map every row is marched exactly once; a pass
+    /// after a move (no previous rows) marches them all.
+    #[test]
+    fn amortized_passes_march_every_row_once_per_cycle() {
+        let size = 10;
+        for update_frames in [1, 3, 4, 16] {
+            let mut marched = vec![0; size as usize];
+            let mut rows = MapRows::next(None, update_frames);
+            assert_eq!(rows, MapRows::ALL, "the first pass marches the whole map");
+            for _ in 0..update_frames {
+                rows = MapRows::next(Some(rows), update_frames);
+                let mut count = 0;
+                for row in (rows.offset..size).step_by(rows.stride as usize) {
+                    marched[row as usize] += 1;
+                    count += 1;
+                }
+                assert_eq!(count, rows.count(size), "{update_frames}: {rows:?}");
+            }
+            assert!(
+                marched.iter().all(|&n| n == 1),
+                "{update_frames}: {marched:?}"
+            );
+        }
     }
 
     #[test]
