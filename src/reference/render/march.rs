@@ -722,7 +722,7 @@ pub fn march_clouds(
     }
 }
 
-/// The light steps of a view ray's samples (before [`light_steps_at`]) for a ray at `cos_sun`
+/// The light steps of a view ray's samples (before `light_steps_at`) for a ray at `cos_sun`
 /// (the cosine of its angle to the sun): all of `light_steps` within about 32° of the sun
 /// ([`TOWARD_SUN_COS`]), the share `away_share` (clamped to 0–1, NaN: 1) of them from 60° on
 /// ([`AWAY_FROM_SUN_COS`]), linear between, rounded up, at least 1 (0 for 0). An error in a
