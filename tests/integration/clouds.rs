@@ -8,7 +8,9 @@ use bevy::{
     render::render_resource::TextureFormat,
 };
 use bevy_cloudscape::{
-    prelude::*, reference::render::CloudTextures, render::march::CloudPassStats,
+    prelude::*,
+    reference::render::CloudTextures,
+    render::{march::CloudPassStats, shadow::CloudShadowStats},
 };
 
 use crate::common::scenes::*;
@@ -304,10 +306,13 @@ fn near_box_unchanged_far_box_covered(resolution_scale: f32) {
     );
 }
 
+/// Clouds cost nothing where there are none to draw: with no layer, with a layer of coverage 0,
+/// or with cloudy layers but no camera that asks for clouds (no `VolumetricClouds`), the frame
+/// is the frame without the plugin, and neither the march nor the shadow pass runs.
 #[test]
 fn no_coverage_is_the_same_frame_as_no_plugin_and_skips_the_pass() {
     let size = UVec2::new(48, 27);
-    let scene = |with_plugin: bool, coverage: Option<f32>| {
+    let scene = |with_plugin: bool, coverage: Option<f32>, clouds_on: bool| {
         let mut app = Headless::new(size, TextureFormat::Rgba16Float, |app| {
             if with_plugin {
                 app.add_plugins(CloudscapePlugin)
@@ -316,11 +321,13 @@ fn no_coverage_is_the_same_frame_as_no_plugin_and_skips_the_pass() {
             app.add_systems(Startup, crate::common::spawn_sky_scene);
         });
         let target = app.target.clone();
-        app.world().spawn((
+        let mut camera = app.world().spawn((
             crate::common::sky_scene_camera(),
             RenderTarget::Image(target.into()),
-            VolumetricClouds::MEDIUM,
         ));
+        if clouds_on {
+            camera.insert(VolumetricClouds::MEDIUM);
+        }
         if let Some(coverage) = coverage {
             app.world().spawn(layer(CloudKind::Cumulus, coverage));
         }
@@ -329,22 +336,33 @@ fn no_coverage_is_the_same_frame_as_no_plugin_and_skips_the_pass() {
             .render_world()
             .get_resource::<CloudPassStats>()
             .map_or(0, |s| s.views_marched);
-        (app.read_target().rgba, marched)
+        let shadow_passes = app
+            .render_world()
+            .get_resource::<CloudShadowStats>()
+            .map_or(0, |s| s.passes);
+        (app.read_target().rgba, marched + shadow_passes)
     };
-    let (off, _) = scene(false, None);
-    let (no_layers, marched_no_layers) = scene(true, None);
-    let (zero, marched_zero) = scene(true, Some(0.0));
-    let (cloudy, marched_cloudy) = scene(true, Some(0.5));
+    let (off, _) = scene(false, None, true);
+    // A camera without `VolumetricClouds` has no depth prepass and HDR either.
+    let (plain_off, _) = scene(false, None, false);
+    let (no_layers, passes_no_layers) = scene(true, None, true);
+    let (zero, passes_zero) = scene(true, Some(0.0), true);
+    let (no_camera, passes_no_camera) = scene(true, Some(0.5), false);
+    let (cloudy, passes_cloudy) = scene(true, Some(0.5), true);
     assert_eq!(no_layers, off, "no layers: the frame of the plugin off");
     assert_eq!(zero, off, "coverage 0: the frame of the plugin off");
     assert_eq!(
-        (marched_no_layers, marched_zero),
-        (0, 0),
-        "the pass did not run"
+        no_camera, plain_off,
+        "no camera with clouds: the frame of the plugin off"
+    );
+    assert_eq!(
+        (passes_no_layers, passes_zero, passes_no_camera),
+        (0, 0, 0),
+        "neither the march nor the shadow pass ran"
     );
     assert!(
-        marched_cloudy > 0 && cloudy != off,
-        "with coverage the pass runs and changes the frame"
+        passes_cloudy > 0 && cloudy != off,
+        "with coverage the passes run and change the frame"
     );
 }
 
