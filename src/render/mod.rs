@@ -168,7 +168,7 @@ pub struct VolumetricClouds {
     /// to 64. With an early exit ([`VolumetricClouds::transmittance_cutoff`] above 0), samples
     /// deep in a cloud take fewer: in proportion to the view transmittance once it is below
     /// 0.25 (never fewer than 4), as their light counts for that much less. Default 14 (`LOW`
-    /// 10, `HIGH` 24, `ULTRA` 32).
+    /// 12, `HIGH` 24, `ULTRA` 32).
     pub light_steps: u32,
     /// How fast steps grow with distance from the camera, 1/m: a step at distance `d` is
     /// `1 + step_growth · d` times longer than one at the camera. 0 keeps steps even.
@@ -252,7 +252,7 @@ pub struct VolumetricClouds {
     /// Away from the sun the phase function sends a sample's direct sunlight toward the camera
     /// weakly, and its sky light and diffuse light, which depend far less on the sun's optical
     /// depth, carry it, so an error in that depth costs the image little there. 1: every ray
-    /// takes every light step. Default 0.5 (`LOW` 0.7, `ULTRA` 1).
+    /// takes every light step. Default 0.5 (`LOW` 0.3, `ULTRA` 1).
     pub light_steps_away_from_sun: f32,
     /// Side of each layer's weather map, in weather-noise texels ([`weather_map`]): the march
     /// reads a layer's local coverage and the fine warp's curl from the map within
@@ -273,13 +273,13 @@ pub struct VolumetricClouds {
 }
 
 impl VolumetricClouds {
-    /// The cheapest: [`VolumetricClouds::MEDIUM`]'s quarter resolution with 160 primary and 10
-    /// light steps (7 for rays 60° or more from the sun), a 30 m shortest primary step, 8 haze
+    /// The cheapest: [`VolumetricClouds::MEDIUM`]'s quarter resolution with 160 primary and 12
+    /// light steps (4 for rays 60° or more from the sun), a 30 m shortest primary step, 8 haze
     /// steps and no light shafts. Measured time and error: `docs/performance.md`.
     pub const LOW: Self = Self {
         primary_steps: 160,
-        light_steps: 10,
-        light_steps_away_from_sun: 0.7,
+        light_steps: 12,
+        light_steps_away_from_sun: 0.3,
         haze_steps: 8,
         light_shafts: false,
         min_step_m: 30.0,
