@@ -374,12 +374,9 @@ impl GpuCloudUniforms {
             } else {
                 0.0
             },
-            // As `ray_light_steps` reads it: clamped to 0-1, NaN 1.
-            light_steps_away_from_sun: if settings.light_steps_away_from_sun.is_nan() {
-                1.0
-            } else {
-                settings.light_steps_away_from_sun.clamp(0.0, 1.0) as f32
-            },
+            light_steps_away_from_sun: crate::reference::render::away_from_sun_share(
+                settings.light_steps_away_from_sun,
+            ),
             _pad2: UVec2::ZERO,
             camera_up: vec4(settings.camera_up),
             sun_direction: vec4(settings.sun_direction),

@@ -731,11 +731,7 @@ pub fn march_clouds(
 /// and the diffuse light, which the optical depth changes far less, carry the sample, and fewer
 /// light steps cost the image little. Computed in f32 on both sides. WGSL twin: `ray_light_steps`.
 pub fn ray_light_steps(light_steps: u32, cos_sun: f64, away_share: f64) -> u32 {
-    let away = if away_share.is_nan() {
-        1.0
-    } else {
-        away_share.clamp(0.0, 1.0) as f32
-    };
+    let away = away_from_sun_share(away_share);
     let toward = ((cos_sun as f32 - AWAY_FROM_SUN_COS as f32)
         / (TOWARD_SUN_COS as f32 - AWAY_FROM_SUN_COS as f32))
         .clamp(0.0, 1.0);
@@ -744,6 +740,16 @@ pub fn ray_light_steps(light_steps: u32, cos_sun: f64, away_share: f64) -> u32 {
         return 0;
     }
     ((light_steps as f32 * share).ceil() as u32).clamp(1, light_steps)
+}
+
+/// [`MarchSettings::light_steps_away_from_sun`] as [`ray_light_steps`] reads it, in f32: clamped
+/// to 0–1, NaN 1 (every light step). The GPU's uniform holds this value.
+pub fn away_from_sun_share(away_share: f64) -> f32 {
+    if away_share.is_nan() {
+        1.0
+    } else {
+        away_share.clamp(0.0, 1.0) as f32
+    }
 }
 
 /// The light steps of a sample, from the view ray's `transmittance` and `cutoff_transmittance`

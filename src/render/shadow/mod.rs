@@ -573,6 +573,7 @@ fn extract_cloud_shadow(
                 frame,
                 camera_m: camera.translation().as_dvec3(),
             });
+            let sanitized = settings.sanitized();
             let matrix = light_transform.affine().matrix3;
             let placement = MapPlacement {
                 centre: light_transform.translation(),
@@ -582,7 +583,7 @@ fn extract_cloud_shadow(
                     matrix.z_axis.into(),
                 ],
                 size: frame.size,
-                steps: settings.sanitized().steps,
+                steps: sanitized.steps,
                 cloud_range_m: frame.cloud_range_m,
                 layers: layers.len(),
             };
@@ -591,8 +592,8 @@ fn extract_cloud_shadow(
                 settings: Box::new(march),
                 layers,
                 frame,
-                steps: settings.sanitized().steps,
-                update_frames: settings.sanitized().update_frames,
+                steps: sanitized.steps,
+                update_frames: sanitized.update_frames,
                 placement: Box::new(placement),
             })
         }
