@@ -94,7 +94,15 @@ fn generate_cpu_cloud_textures(
 pub struct CloudQuery<'w, 's> {
     textures: Option<Res<'w, CpuCloudTextures>>,
     world: Option<Res<'w, CloudWorld>>,
-    layers: Query<'w, 's, (&'static CloudLayer, Option<&'static LayerDrift>)>,
+    layers: Query<
+        'w,
+        's,
+        (
+            &'static CloudLayer,
+            Option<&'static LayerDrift>,
+            Option<&'static crate::render::growth::GrowthRun>,
+        ),
+    >,
     cameras: Query<'w, 's, &'static GlobalTransform, With<VolumetricClouds>>,
     lights: Query<
         'w,
@@ -139,7 +147,9 @@ impl CloudQuery<'_, '_> {
             &camera,
             1.0e-3,
             sun.as_ref(),
-            self.layers.iter(),
+            self.layers
+                .iter()
+                .map(|(layer, drift, run)| (layer, drift, run.map(|r| r.growth()))),
             0,
         );
         let relative = (point.as_dvec3() - camera.translation().as_dvec3()).to_array();

@@ -8,7 +8,7 @@
 
 use bevy::prelude::*;
 
-use crate::reference::growth::{GrowthGrid, probability_threshold};
+use crate::reference::growth::{CLD, GrowthGrid, HUM, probability_threshold};
 use crate::reference::noise::perlin_noise_3d;
 
 /// One 2D field of the noise maker (Rosa 2013 §4.1), 0–1 per column of the automaton's grid.
@@ -175,6 +175,73 @@ impl Default for CloudGrowth {
 }
 
 impl CloudGrowth {
+    /// The settings as the automaton runs them: the grid clamped to 8–1024 columns along x and
+    /// y and 1–64 cells up, the probabilities to 0–1 and the steps per hour to 0–36 000 (10 a
+    /// second); NaN becomes the default.
+    #[must_use]
+    pub fn sanitized(&self) -> Self {
+        let default = Self::default();
+        let clamp = |v: f32, low: f32, high: f32, fallback: f32| {
+            if v.is_nan() {
+                fallback
+            } else {
+                v.clamp(low, high)
+            }
+        };
+        Self {
+            grid: [
+                self.grid[0].clamp(8, 1024),
+                self.grid[1].clamp(8, 1024),
+                self.grid[2].clamp(1, 64),
+            ],
+            humidity_probability: clamp(
+                self.humidity_probability,
+                0.0,
+                1.0,
+                default.humidity_probability,
+            ),
+            activation_probability: clamp(
+                self.activation_probability,
+                0.0,
+                1.0,
+                default.activation_probability,
+            ),
+            extinction_probability: clamp(
+                self.extinction_probability,
+                0.0,
+                1.0,
+                default.extinction_probability,
+            ),
+            steps_per_hour: clamp(self.steps_per_hour, 0.0, 36_000.0, default.steps_per_hour),
+            ..self.clone()
+        }
+    }
+
+    /// The grid a run starts from: the `coverage` (0–1) share of the columns where the
+    /// humidity field is highest full of humid cloud, the rest clear, so a layer that starts
+    /// growing shows about its coverage at once, where clouds would grow anyway.
+    #[must_use]
+    pub fn initial_grid(&self, coverage: f32) -> GrowthGrid {
+        let size = self.grid;
+        let mut grid = GrowthGrid::new(size);
+        let humidity = self.humidity.field([size[0], size[1]]);
+        let mut order: Vec<usize> = (0..humidity.len()).collect();
+        order.sort_by(|&a, &b| humidity[b].total_cmp(&humidity[a]).then(a.cmp(&b)));
+        let coverage = if coverage.is_nan() {
+            0.0
+        } else {
+            coverage.clamp(0.0, 1.0)
+        };
+        let cloudy = (coverage * humidity.len() as f32).round() as usize;
+        let columns = (size[0] * size[1]) as usize;
+        for &column in &order[..cloudy.min(order.len())] {
+            for z in 0..size[2] as usize {
+                grid.cells[column + columns * z] = HUM | CLD;
+            }
+        }
+        grid
+    }
+
     /// The per-column humidity and activation thresholds ([`GrowthGrid::step`]'s `columns`)
     /// for activation and humidity probabilities `p_act` and `p_hum`.
     #[must_use]

@@ -91,11 +91,9 @@ use bevy::prelude::{Component, Reflect, ReflectComponent, ReflectDefault};
 
 pub use drift::LayerDrift;
 pub(crate) use drift::drift_cloud_layers;
-// Not drawn yet: the weather map does not read the automaton (see `render::growth`).
+pub use growth::{CloudGrowth, NoiseMaker};
 #[doc(hidden)]
-pub use growth::{
-    CloudGrowth, GrowthProbabilities, GrowthSteering, NoiseMaker, covered_fraction, covered_regions,
-};
+pub use growth::{GrowthProbabilities, GrowthSteering, covered_fraction, covered_regions};
 pub use haze::{Haze, KOSCHMIEDER_CONSTANT};
 pub use kind::{CloudKind, KindDefaults};
 pub use profile::{DensityProfile, ProfileInterpolation, ProfilePoint};

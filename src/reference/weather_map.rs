@@ -233,4 +233,62 @@ mod tests {
                 .all(|&[k, ..]| k == 0.0)
         );
     }
+
+    #[test]
+    fn a_growing_layer_reads_its_columns_cover_instead_of_the_noise() {
+        use crate::reference::render::{
+            LayerGrowth, OVERCAST_COVERAGE, PATCH_COVERAGE, growth_coverage,
+        };
+        let weather = weather();
+        // An 8 x 8 grid over the 32-texel noise: 4 texels per column along each axis.
+        let mut cover = vec![0.0f32; 64];
+        cover[3 + 8 * 2] = 1.0;
+        cover[4 + 8 * 2] = 0.125;
+        let mut layer = MarchLayer {
+            coverage: 0.5,
+            ..MarchLayer::default()
+        };
+        layer.growth = Some(LayerGrowth {
+            size: [8, 8],
+            slice: 0,
+            cover: cover.into(),
+        });
+        let kappa =
+            |layer: &MarchLayer, x: i64, y: i64| weather_texel_coverage(&weather, layer, [x, y]);
+        for y in 0..32 {
+            for x in 0..32 {
+                let expected = match (x / 4, y / 4) {
+                    (3, 2) => PATCH_COVERAGE,
+                    (4, 2) => 0.5 * PATCH_COVERAGE,
+                    _ => 0.0,
+                };
+                assert_eq!(kappa(&layer, x, y), expected, "texel ({x}, {y})");
+                // Texels wrap with the noise, and the grid with them.
+                assert_eq!(kappa(&layer, x - 32, y + 64), expected);
+            }
+        }
+        // Without the automaton the same texels read the noise: the weather's pattern differs.
+        let noise = MarchLayer {
+            growth: None,
+            ..layer.clone()
+        };
+        assert!((0..32).any(|x| kappa(&noise, x, 9) != kappa(&layer, x, 9)));
+        // Coverage 0 clears even the automaton's clouds; above OVERCAST_COVERAGE it closes.
+        assert_eq!(growth_coverage(0.0, 1.0), 0.0);
+        assert_eq!(growth_coverage(1.0, 0.0), 1.0);
+        assert!(growth_coverage(0.5 * (OVERCAST_COVERAGE + 1.0), 0.0) > 0.4);
+        // A grid finer than the noise reads the column under the texel's first corner.
+        let fine = LayerGrowth {
+            size: [64, 64],
+            slice: 0,
+            cover: (0..64 * 64).map(|i| (i % 64) as f32 / 64.0).collect(),
+        };
+        assert_eq!(fine.cover_at([5, 0], 32), 10.0 / 64.0);
+        // A cover shorter than its grid reads 0 past its end (never out of bounds).
+        let short = LayerGrowth {
+            cover: vec![1.0; 3].into(),
+            ..fine
+        };
+        assert_eq!(short.cover_at([31, 31], 32), 0.0);
+    }
 }

@@ -130,6 +130,7 @@ fn rust_constants() -> Vec<(&'static str, Vec<f64>)> {
         ("PATCH_AREA_GAIN", scalar(PATCH_AREA_GAIN)),
         ("BROKEN_PATCH_AREA", scalar(BROKEN_PATCH_AREA)),
         ("CLOSING_COVERAGE", scalar(CLOSING_COVERAGE)),
+        ("GROWTH_FULL_COVER", scalar(GROWTH_FULL_COVER)),
         ("SHAPE_WARP", scalar(SHAPE_WARP)),
         ("SHAPE_WARP_BROAD", scalar(SHAPE_WARP_BROAD)),
         ("BROAD_WARP_PERIODS", scalar(BROAD_WARP_PERIODS)),

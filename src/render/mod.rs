@@ -38,7 +38,7 @@ use bevy::{
     core_pipeline::{Core3dSystems, prepass::DepthPrepass, schedule::Core3d},
     prelude::*,
     render::{
-        Render, RenderApp, RenderStartup, RenderSystems,
+        ExtractSchedule, Render, RenderApp, RenderStartup, RenderSystems,
         render_resource::SpecializedRenderPipelines,
     },
 };
@@ -55,6 +55,7 @@ pub struct CloudRenderPlugin;
 /// with or without a renderer (a server, a test of the weather alone), so the layers still drift.
 fn scene_data(app: &mut App) {
     app.register_type::<VolumetricClouds>()
+        .register_type::<crate::layers::CloudGrowth>()
         .register_type::<crate::world::CloudWorld>()
         .init_resource::<crate::world::CloudWorld>()
         .register_type::<crate::layers::LayerDrift>()
@@ -85,6 +86,21 @@ impl Plugin for CloudRenderPlugin {
             weather_map::load_weather_map_shader(app);
         }
         shadow::build(app);
+        if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
+            render_app
+                .init_resource::<growth::GrowthComputes>()
+                .add_systems(ExtractSchedule, growth::extract_cloud_growth)
+                .add_systems(
+                    Render,
+                    growth::run_growth_jobs.in_set(RenderSystems::PrepareResources),
+                );
+            app.add_systems(
+                Update,
+                growth::run_cloud_growth
+                    .after(crate::CloudscapeSystems::Layers)
+                    .before(crate::CloudscapeSystems::Sun),
+            );
+        }
     }
 
     fn finish(&self, app: &mut App) {

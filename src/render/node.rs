@@ -184,6 +184,7 @@ pub(super) fn march_cloud_layers(
     pipeline_cache: Res<PipelineCache>,
     images: Res<RenderAssets<GpuImage>>,
     fallback: Res<FallbackImage>,
+    growth: Option<Res<super::growth::ExtractedGrowth>>,
     mut stats: ResMut<CloudPassStats>,
     mut ctx: RenderContext,
 ) {
@@ -282,6 +283,7 @@ pub(super) fn march_cloud_layers(
     // Binding 11 is the shaft pass's output for the march, and a stand-in for the shaft pass
     // itself (a texture may not be read and written in one pass).
     let march_layout = pick(&pipeline.layouts);
+    let growth_cover = super::growth::growth_cover_view(growth.as_deref(), &images, &fallback);
     let march_bind_group = |label: &'static str, shaft_view: &TextureView| {
         device.create_bind_group(
             label,
@@ -300,6 +302,7 @@ pub(super) fn march_cloud_layers(
                 &pipeline.blue_noise,
                 shaft_view,
                 &weather_map.view,
+                growth_cover,
             )),
         )
     };

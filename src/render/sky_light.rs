@@ -195,7 +195,11 @@ type LitCamera<'a> = (
 /// Scales each camera's sky light by the clouds above it ([`CloudSkyLight`]).
 pub(crate) fn light_the_scene_under_the_clouds(
     world: Option<Res<CloudWorld>>,
-    layers: Query<(&CloudLayer, Option<&LayerDrift>)>,
+    layers: Query<(
+        &CloudLayer,
+        Option<&LayerDrift>,
+        Option<&crate::render::growth::GrowthRun>,
+    )>,
     lights: Query<(&DirectionalLight, &GlobalTransform, Has<Sun>)>,
     mut cameras: Query<LitCamera>,
 ) {
@@ -210,7 +214,9 @@ pub(crate) fn light_the_scene_under_the_clouds(
                 camera,
                 1.0e-3,
                 sun.as_ref(),
-                layers.iter(),
+                layers
+                    .iter()
+                    .map(|(layer, drift, run)| (layer, drift, run.map(|r| r.growth()))),
                 0,
             );
             sky_light_factor(&settings, &march_layers, GROUND_ALBEDO) as f32

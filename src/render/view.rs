@@ -20,7 +20,7 @@ use crate::{
     reference::composite::{sample_offset, upsampled_march_size, upsampling_factor},
     reference::{
         haze::HazeSettings,
-        render::{MAX_FAR_COVERAGES, MAX_PROFILE_POINTS, MarchLayer, MarchSettings},
+        render::{LayerGrowth, MAX_FAR_COVERAGES, MAX_PROFILE_POINTS, MarchLayer, MarchSettings},
         shadow::ShadowMapFrame,
     },
     sky::{Sun, light},
@@ -74,6 +74,51 @@ const NIGHT_SKY_RADIANCE: [f64; 3] = [0.6e-4, 0.8e-4, 1.2e-4];
 pub(crate) const GROUND_ALBEDO: f64 = 0.2;
 
 #[doc(hidden)]
+/// One layer as [`march_inputs`] takes it: the layer, its wind drift and the clouds of its
+/// growth automaton. Made from `(layer, drift)` or `(layer, drift, growth)`.
+#[derive(Clone, Copy, Debug)]
+pub struct LayerInput<'a> {
+    /// The layer.
+    pub layer: &'a CloudLayer,
+    /// How far the wind has carried it (none: not at all).
+    pub drift: Option<&'a LayerDrift>,
+    /// Its clouds from the growth automaton (none: the weather noise's).
+    pub growth: Option<&'a LayerGrowth>,
+}
+
+impl<'a> From<(&'a CloudLayer, Option<&'a LayerDrift>)> for LayerInput<'a> {
+    fn from((layer, drift): (&'a CloudLayer, Option<&'a LayerDrift>)) -> Self {
+        Self {
+            layer,
+            drift,
+            growth: None,
+        }
+    }
+}
+
+impl<'a>
+    From<(
+        &'a CloudLayer,
+        Option<&'a LayerDrift>,
+        Option<&'a LayerGrowth>,
+    )> for LayerInput<'a>
+{
+    fn from(
+        (layer, drift, growth): (
+            &'a CloudLayer,
+            Option<&'a LayerDrift>,
+            Option<&'a LayerGrowth>,
+        ),
+    ) -> Self {
+        Self {
+            layer,
+            drift,
+            growth,
+        }
+    }
+}
+
+#[doc(hidden)]
 /// The march inputs for one camera: f64 settings and the visible layers, from the same numbers
 /// the CPU reference renders with.
 ///
@@ -86,7 +131,7 @@ pub fn march_inputs<'a>(
     camera: &GlobalTransform,
     pixel_angle_rad: f64,
     sun: Option<&CloudSun>,
-    layers: impl IntoIterator<Item = (&'a CloudLayer, Option<&'a LayerDrift>)>,
+    layers: impl IntoIterator<Item = impl Into<LayerInput<'a>>>,
     frame_index: u32,
 ) -> (MarchSettings, Vec<MarchLayer>) {
     let settings = &settings.sanitized();
@@ -96,12 +141,15 @@ pub fn march_inputs<'a>(
     let (up, camera_altitude_m) = world.camera_up_and_altitude(position);
 
     let mut march_layers = Vec::new();
-    for (layer, drift) in layers {
-        let layer = layer.sanitized();
+    for input in layers {
+        let input: LayerInput = input.into();
+        let layer = input.layer.sanitized();
         if !layer.is_visible() {
             continue;
         }
-        let march = march_layer(world, &layer, &drift.copied().unwrap_or_default(), position);
+        let drift = input.drift.copied().unwrap_or_default();
+        let mut march = march_layer(world, &layer, &drift, position);
+        march.growth = input.growth.cloned();
         if let Some(rain) = rain_shaft(&layer, &march) {
             march_layers.push(rain);
         }
@@ -403,7 +451,7 @@ impl GpuCloudUniforms {
     }
 }
 
-/// One layer, laid out as `CloudLayerGpu` in `parameters.wgsl` (208 bytes).
+/// One layer, laid out as `CloudLayerGpu` in `parameters.wgsl` (224 bytes).
 #[derive(ShaderType, Clone, Debug, Default)]
 pub(crate) struct GpuCloudLayer {
     base_m: f32,
@@ -425,6 +473,7 @@ pub(crate) struct GpuCloudLayer {
     profile: [Vec4; 4],
     far: [Vec4; MAX_FAR_COVERAGES],
     weather_map: Vec4,
+    growth: Vec4,
 }
 
 impl GpuCloudLayer {
@@ -480,6 +529,14 @@ impl From<&MarchLayer> for GpuCloudLayer {
                 .far
                 .map(|f| Vec4::new(f[0] as f32, f[1] as f32, f[2] as f32, f[3] as f32)),
             weather_map: Vec4::ZERO,
+            growth: layer.growth.as_ref().map_or(Vec4::ZERO, |growth| {
+                Vec4::new(
+                    1.0,
+                    growth.slice as f32,
+                    growth.size[0].max(1) as f32,
+                    growth.size[1].max(1) as f32,
+                )
+            }),
         }
     }
 }
@@ -539,7 +596,13 @@ pub(crate) fn extract_cloud_views(
             &Projection,
         )>,
     >,
-    layers: Extract<Query<(&CloudLayer, Option<&LayerDrift>)>>,
+    layers: Extract<
+        Query<(
+            &CloudLayer,
+            Option<&LayerDrift>,
+            Option<&crate::render::growth::GrowthRun>,
+        )>,
+    >,
     lights: Extract<Query<(&DirectionalLight, &GlobalTransform, Has<Sun>)>>,
     atmospheres: Extract<Query<(), With<Atmosphere>>>,
     frame: Extract<Res<FrameCount>>,
@@ -569,7 +632,9 @@ pub(crate) fn extract_cloud_views(
             transform,
             pixel_angle,
             sun.as_ref(),
-            layers.iter(),
+            layers
+                .iter()
+                .map(|(layer, drift, run)| (layer, drift, run.map(|r| r.growth()))),
             frame.0,
         );
         let haze = haze_settings(haze, settings, &march, &march_layers);
@@ -754,7 +819,7 @@ mod tests {
     #[test]
     fn gpu_structs_match_the_shader_layout() {
         assert_eq!(GpuCloudUniforms::min_size().get(), 256);
-        assert_eq!(GpuCloudLayer::min_size().get(), 208);
+        assert_eq!(GpuCloudLayer::min_size().get(), 224);
     }
 
     #[test]

@@ -66,3 +66,158 @@ fn the_gpu_automaton_matches_its_cpu_twin_bit_for_bit_over_100_steps() {
         "a field with cloud and gaps: {cloud}"
     );
 }
+
+/// A cumulus layer whose clouds grow: the automaton starts at the layer's coverage and moves
+/// its clouds as scene time passes, the march on the GPU draws the cover it wrote (the CPU twin,
+/// given the cover read back, renders the same image), and that cover, not the weather noise,
+/// places the clouds.
+#[test]
+fn a_growing_layer_draws_the_automatons_clouds() {
+    use bevy::prelude::*;
+    use bevy_cloudscape::{
+        layers::{CloudGrowth, CloudKind, CloudLayer, NoiseMaker},
+        render::growth::GrowthRun,
+        scene::SceneClock,
+    };
+
+    use crate::common::scenes::*;
+    use crate::harness::output_dir;
+
+    let size = UVec2::new(96, 54);
+    let (textures, mut rig) = small_rig(size);
+    let scene = Scene {
+        name: "growth",
+        camera: looking(Vec3::new(0.0, 2.0, 0.0), 25.0, 0.0),
+        sun_deg: (60.0, 150.0),
+        layers: vec![layer(CloudKind::Cumulus, 0.5)],
+        settings: settings(64),
+    };
+    // The same layer drawn from the weather noise.
+    rig.set_scene(&scene);
+    let (noise_l, _) = rig.render(4);
+
+    rig.set_scene(&scene);
+    let world = rig.app.world();
+    let layer = world
+        .query_filtered::<Entity, With<CloudLayer>>()
+        .single(world)
+        .unwrap();
+    let fine = NoiseMaker {
+        increment: [0.12, 0.12],
+        ..NoiseMaker::default()
+    };
+    world.entity_mut(layer).insert(CloudGrowth {
+        grid: [64, 64, 8],
+        humidity: fine.clone(),
+        activation: NoiseMaker { seed: 1, ..fine },
+        ..CloudGrowth::default()
+    });
+    rig.app.run_frames(2);
+    let start = rig
+        .app
+        .world()
+        .get::<GrowthRun>(layer)
+        .expect("the layer grows")
+        .clone();
+    assert_eq!(start.steps_done(), 0, "the clock stands still");
+    assert!(
+        (start.covered() - 0.5).abs() < 0.01,
+        "the run starts at the coverage: {}",
+        start.covered()
+    );
+    // Scene time runs at ten hours a second (a step whenever the last one's cover is back),
+    // then stops; the frames after it bring the last read-back.
+    let set_clock = |rig: &mut CloudRig, paused: bool| {
+        let mut clock = rig.app.world().resource_mut::<SceneClock>();
+        clock.speed = 36_000.0;
+        clock.paused = paused;
+    };
+    set_clock(&mut rig, false);
+    rig.app.run_frames(90);
+    set_clock(&mut rig, true);
+    // The steps already due run, then the last read-back arrives.
+    let steps = |rig: &mut CloudRig| {
+        let run = rig.app.world().get::<GrowthRun>(layer).unwrap();
+        (run.steps_done(), run.awaits_cover())
+    };
+    let mut settled = 0;
+    for _ in 0..200 {
+        let before = steps(&mut rig);
+        rig.app.run_frames(1);
+        settled = if steps(&mut rig) == before && !before.1 {
+            settled + 1
+        } else {
+            0
+        };
+        if settled == 4 {
+            break;
+        }
+    }
+    assert_eq!(
+        settled, 4,
+        "the automaton comes to rest once the clock stands"
+    );
+    let run = rig.app.world().get::<GrowthRun>(layer).unwrap().clone();
+    let changed = run
+        .growth()
+        .cover
+        .iter()
+        .zip(start.growth().cover.iter())
+        .filter(|(a, b)| (**a > 0.0) != (**b > 0.0))
+        .count() as f32
+        / run.growth().cover.len() as f32;
+    eprintln!(
+        "after {} steps: covered {:.3}, columns that cleared or clouded {changed:.3}",
+        run.steps_done(),
+        run.covered()
+    );
+    assert!(run.steps_done() >= 30, "steps ran: {}", run.steps_done());
+    assert!(changed > 0.05, "clouds formed and dissolved: {changed}");
+    assert!(
+        (0.05..0.95).contains(&run.covered()),
+        "clouds and gaps: {}",
+        run.covered()
+    );
+
+    let (gpu_l, gpu_t) = rig.render(4);
+    let view = rig.rendered_view.clone().unwrap();
+    let now = rig.app.world().get::<GrowthRun>(layer).unwrap().clone();
+    assert_eq!(
+        now.steps_done(),
+        run.steps_done(),
+        "no step while the clock stands"
+    );
+    assert!(
+        view.layers[0].growth.as_ref().map(|g| &g.cover) == Some(&now.growth().cover),
+        "the frame drew the cover the main world read back"
+    );
+    let (cpu_l, cpu_t) = rig.reference(&textures);
+    save_strip(
+        &output_dir().join("growth_layer.png"),
+        size,
+        &[&gpu_l, &cpu_l, &noise_l],
+    );
+    let error = relative_rmse(&gpu_l, &cpu_l);
+    let mean_t = cpu_t.iter().map(|t| f64::from(*t)).sum::<f64>() / cpu_t.len() as f64;
+    let t_rmse = (gpu_t
+        .iter()
+        .zip(&cpu_t)
+        .map(|(a, b)| f64::from(a - b).powi(2))
+        .sum::<f64>()
+        / cpu_t.len() as f64)
+        .sqrt();
+    let from_noise = relative_rmse(&noise_l, &gpu_l);
+    eprintln!(
+        "GPU against its twin: relative RMSE {error:.4}, T RMSE {t_rmse:.4}, mean T {mean_t:.3}; \
+         against the weather noise's clouds {from_noise:.3}"
+    );
+    // The bounds of the showcase scenes' GPU-against-twin test.
+    assert!(error <= 0.03, "relative RMSE {error} > 3 %");
+    assert!(t_rmse <= 0.02, "transmittance RMSE {t_rmse}");
+    assert!(mean_t < 0.95, "the frame shows cloud (mean T {mean_t})");
+    // Another pattern: far more than the 3 % a twin may differ.
+    assert!(
+        from_noise > 0.3,
+        "the automaton placed the clouds: {from_noise}"
+    );
+}

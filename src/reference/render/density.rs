@@ -190,10 +190,35 @@ pub fn weather_texel_coverage(
     if coverage >= 1.0 {
         return 1.0;
     }
+    let size = n;
     let n = i64::from(n);
     let [x, y] = texel.map(|i| i.rem_euclid(n) as usize);
+    if let Some(growth) = &layer.growth {
+        return growth_coverage(coverage, growth.cover_at([x, y], size));
+    }
     local_coverage(coverage, unorm8(weather.texels[x + n as usize * y][0]))
 }
+
+/// Local coverage `κ`, 0–1, of a layer whose clouds grow ([`MarchLayer::growth`]), from the
+/// layer's `coverage` (0–1) and the cloud fraction `cover` (0–1) of the automaton's column
+/// there: the patch peak of [`local_coverage`] ([`PATCH_COVERAGE`], rising to 1 from
+/// [`CLOSING_COVERAGE`]) times `cover` over [`GROWTH_FULL_COVER`] (at most 1), so a column with
+/// that share of its cells in cloud is a full patch the shape noise carves and one with a single
+/// cloud cell a thinner one; above [`OVERCAST_COVERAGE`] it blends to 1 like
+/// [`local_coverage`]. Coverage 0 gives 0. WGSL twin: `growth_coverage`.
+pub fn growth_coverage(coverage: f64, cover: f64) -> f64 {
+    if !is_positive(coverage) {
+        return 0.0;
+    }
+    let closing = saturate((coverage - CLOSING_COVERAGE) / (1.0 - CLOSING_COVERAGE));
+    let peak = lerp(PATCH_COVERAGE, 1.0, closing);
+    let overcast = saturate((coverage - OVERCAST_COVERAGE) / (1.0 - OVERCAST_COVERAGE));
+    (saturate(cover / GROWTH_FULL_COVER) * peak).max(overcast)
+}
+
+/// The share of a column's cells in cloud from which [`growth_coverage`] makes it a full patch:
+/// the automaton's clouds fill a few of a column's cells, rarely all.
+pub const GROWTH_FULL_COVER: f64 = 0.25;
 
 /// The weather texel `(index, weight)` pairs a bilinear look-up of coordinate `c` (texture
 /// units) on `n` texels reads along one axis: texel centres at `(i + 0.5) / n`, indices not

@@ -207,6 +207,40 @@ pub struct MarchLayer {
     pub far: [[f64; 4]; MAX_FAR_COVERAGES],
     /// Entries of [`MarchLayer::far`] used, `0..=MAX_FAR_COVERAGES`. Default 0.
     pub far_count: u32,
+    /// The clouds of the growth automaton, which replace the weather noise's pattern
+    /// ([`weather_texel_coverage`](super::weather_texel_coverage)). Default: none.
+    pub growth: Option<LayerGrowth>,
+}
+
+/// A layer's clouds from the cloud-growth automaton ([`crate::reference::growth`]): how much of
+/// each column of its grid holds cloud. The grid spans one period of the weather noise, so
+/// weather texel `(i, j)` (wrapped) reads column `(i · size[0] / n, j · size[1] / n)` of an
+/// `n`-texel noise.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LayerGrowth {
+    /// Columns along the two noise axes, each at least 1.
+    pub size: [u32; 2],
+    /// The layer's slice of the GPU's growth-cover array (WGSL: `growth_cover`).
+    pub slice: u32,
+    /// Each column's cloud fraction, 0–1, x fastest: `size[0] · size[1]` values
+    /// ([`GrowthGrid::column_cover`](crate::reference::growth::GrowthGrid::column_cover)); a
+    /// shorter slice reads 0 past its end.
+    pub cover: std::sync::Arc<[f32]>,
+}
+
+impl LayerGrowth {
+    /// The cover of the column under weather texel `wrapped` (already wrapped into `0..n`) of
+    /// an `n`-texel weather noise. WGSL: the growth branch of `weather_texel_coverage`.
+    pub fn cover_at(&self, wrapped: [usize; 2], n: u32) -> f64 {
+        let n = u64::from(n.max(1));
+        let [x, y] = [0, 1].map(|a| {
+            let size = u64::from(self.size[a].max(1));
+            ((wrapped[a] as u64 * size) / n).min(size - 1) as usize
+        });
+        self.cover
+            .get(x + self.size[0].max(1) as usize * y)
+            .map_or(0.0, |&c| f64::from(c))
+    }
 }
 
 impl Default for MarchLayer {
@@ -232,6 +266,7 @@ impl Default for MarchLayer {
             profile_points: 0,
             far: [[0.0; 4]; MAX_FAR_COVERAGES],
             far_count: 0,
+            growth: None,
         };
         layer.set_profile(&[[0.0, 0.0], [0.1, 1.0], [0.6, 0.8], [1.0, 0.0]]);
         layer

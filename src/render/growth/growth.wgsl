@@ -88,3 +88,21 @@ fn grow(@builtin(global_invocation_id) id: vec3<u32>) {
     let cld_next = (cld || act) && !(cell_random(growth.keys.z, i) < growth.extinction);
     cells_out[i] = select(0u, HUM, hum_next) | select(0u, ACT, act_next) | select(0u, CLD, cld_next);
 }
+
+// Each column's cloud fraction, for the weather (entry `column_cover`, bindings 0, 3 and 4): the
+// number of cloud cells over the cells in the column. Rust: `GrowthGrid::column_cover`.
+@group(0) @binding(4) var cover_out: texture_storage_2d<r32float, write>;
+
+@compute @workgroup_size(8, 8, 1)
+fn column_cover(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= growth.size.x || id.y >= growth.size.y {
+        return;
+    }
+    var count = 0u;
+    for (var z = 0u; z < growth.size.z; z++) {
+        if (cells_in[index_of(vec3<u32>(id.xy, z))] & CLD) != 0u {
+            count += 1u;
+        }
+    }
+    textureStore(cover_out, vec2<i32>(id.xy), vec4<f32>(f32(count) / f32(growth.size.z), 0.0, 0.0, 0.0));
+}

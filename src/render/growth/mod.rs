@@ -11,13 +11,26 @@ use bevy::render::{
         BufferDescriptor, BufferInitDescriptor, BufferUsages, CommandEncoderDescriptor,
         ComputePassDescriptor, ComputePipeline, PipelineCompilationOptions,
         PipelineLayoutDescriptor, RawComputePipelineDescriptor, ShaderModuleDescriptor,
-        ShaderSource, ShaderStages, ShaderType, UniformBuffer,
-        binding_types::{storage_buffer_read_only_sized, storage_buffer_sized, uniform_buffer},
+        ShaderSource, ShaderStages, ShaderType, StorageTextureAccess, TextureFormat, TextureView,
+        UniformBuffer,
+        binding_types::{
+            storage_buffer_read_only_sized, storage_buffer_sized, texture_storage_2d,
+            uniform_buffer,
+        },
     },
     renderer::{RenderDevice, RenderQueue},
 };
 
 use crate::reference::growth::{ACT, CLD, GrowthGrid, HUM, step_key};
+
+mod run;
+
+#[doc(hidden)]
+pub use run::{ExtractedGrowth, GrowthCoverImage, GrowthJob, GrowthRun};
+pub(crate) use run::{
+    GrowthComputes, extract_cloud_growth, growth_cover_view, run_cloud_growth, run_growth_jobs,
+};
+pub use run::{MAX_STEPS_DUE, MAX_STEPS_PER_FRAME};
 
 /// The step's uniforms, laid out as `GrowthUniforms` in `growth.wgsl` (32 bytes).
 #[derive(ShaderType, Clone, Copy, Debug, Default)]
@@ -36,6 +49,8 @@ pub struct GrowthCompute {
     size: [u32; 3],
     pipeline: ComputePipeline,
     layout: BindGroupLayout,
+    cover_pipeline: ComputePipeline,
+    cover_layout: BindGroupLayout,
     cells: [Buffer; 2],
     columns: Buffer,
     per_column: bool,
@@ -80,7 +95,7 @@ impl GrowthCompute {
         let columns_buffer = device.create_buffer_with_data(&BufferInitDescriptor {
             label: Some("cloud growth columns"),
             contents: &bytes(&flat),
-            usage: BufferUsages::STORAGE,
+            usage: BufferUsages::STORAGE | BufferUsages::COPY_DST,
         });
         let layout = device.create_bind_group_layout(
             "cloud growth layout",
@@ -111,10 +126,42 @@ impl GrowthCompute {
             compilation_options: PipelineCompilationOptions::default(),
             cache: None,
         });
+        let cover_layout = device.create_bind_group_layout(
+            "cloud growth cover layout",
+            &BindGroupLayoutEntries::with_indices(
+                ShaderStages::COMPUTE,
+                (
+                    (0, storage_buffer_read_only_sized(false, None)),
+                    (3, uniform_buffer::<GpuGrowthUniforms>(false)),
+                    (
+                        4,
+                        texture_storage_2d(
+                            TextureFormat::R32Float,
+                            StorageTextureAccess::WriteOnly,
+                        ),
+                    ),
+                ),
+            ),
+        );
+        let cover_pipeline_layout = device.create_pipeline_layout(&PipelineLayoutDescriptor {
+            label: Some("cloud growth cover pipeline layout"),
+            bind_group_layouts: &[Some(&cover_layout)],
+            immediate_size: 0,
+        });
+        let cover_pipeline = device.create_compute_pipeline(&RawComputePipelineDescriptor {
+            label: Some("cloud growth cover"),
+            layout: Some(&cover_pipeline_layout),
+            module: &module,
+            entry_point: Some("column_cover"),
+            compilation_options: PipelineCompilationOptions::default(),
+            cache: None,
+        });
         Self {
             size,
             pipeline,
             layout,
+            cover_pipeline,
+            cover_layout,
             cells,
             columns: columns_buffer,
             per_column: columns.len() > 1,
@@ -175,6 +222,64 @@ impl GrowthCompute {
             }
             keep.push((uniforms, bind_group));
             self.current = to;
+        }
+        queue.submit([encoder.finish()]);
+    }
+
+    /// Replaces the columns' thresholds (as [`GrowthCompute::new`] takes them; the same count
+    /// as there, or the call is ignored) for the steps that follow.
+    pub fn set_columns(&self, queue: &RenderQueue, columns: &[[u32; 2]]) {
+        let expected = if self.per_column {
+            (self.size[0] * self.size[1]) as usize
+        } else {
+            1
+        };
+        if columns.len() != expected {
+            return;
+        }
+        let bytes: Vec<u8> = columns
+            .iter()
+            .flatten()
+            .flat_map(|c| c.to_le_bytes())
+            .collect();
+        queue.write_buffer(&self.columns, 0, &bytes);
+    }
+
+    /// Writes each column's cloud fraction ([`GrowthGrid::column_cover`], bit for bit) into
+    /// `cover`, an `R32Float` view of at least `size[0] × size[1]` texels, and submits it.
+    pub fn write_cover(&self, device: &RenderDevice, queue: &RenderQueue, cover: &TextureView) {
+        let mut uniforms = UniformBuffer::from(GpuGrowthUniforms {
+            size: self.size.into(),
+            ..Default::default()
+        });
+        uniforms.write_buffer(device, queue);
+        let Some(binding) = uniforms.binding() else {
+            return;
+        };
+        let bind_group = device.create_bind_group(
+            "cloud growth cover bind group",
+            &self.cover_layout,
+            &BindGroupEntries::with_indices((
+                (0, self.cells[self.current].as_entire_binding()),
+                (3, binding),
+                (4, cover),
+            )),
+        );
+        let mut encoder = device.create_command_encoder(&CommandEncoderDescriptor {
+            label: Some("cloud growth cover"),
+        });
+        {
+            let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
+                label: Some("cloud growth cover"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&self.cover_pipeline);
+            pass.set_bind_group(0, &*bind_group, &[]);
+            pass.dispatch_workgroups(
+                self.size[0].div_ceil(WORKGROUP),
+                self.size[1].div_ceil(WORKGROUP),
+                1,
+            );
         }
         queue.submit([encoder.finish()]);
     }

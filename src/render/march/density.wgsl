@@ -9,7 +9,7 @@
 
 #import bevy_cloudscape::cloud_parameters::{CloudLayerGpu, MAX_PROFILE_POINTS, cloud_layers}
 #import bevy_cloudscape::cloud_textures::{
-    base_noise, detail_noise, sample_base_noise, sample_detail_noise, weather_noise,
+    base_noise, detail_noise, growth_cover, sample_base_noise, sample_detail_noise, weather_noise,
 }
 #ifdef WEATHER_MAP
 #import bevy_cloudscape::cloud_textures::weather_map
@@ -30,6 +30,7 @@ const PATCH_COVERAGE: f32 = 0.25;
 const PATCH_AREA_GAIN: f32 = 2.5;
 const BROKEN_PATCH_AREA: f32 = 0.75;
 const CLOSING_COVERAGE: f32 = 0.75;
+const GROWTH_FULL_COVER: f32 = 0.25;
 const SHAPE_WARP: f32 = 0.125;
 const SHAPE_WARP_BROAD: f32 = 0.5;
 const BROAD_WARP_PERIODS: f32 = 32.0;
@@ -160,7 +161,27 @@ fn weather_texel_coverage(layer: CloudLayerGpu, texel: vec2<i32>) -> f32 {
         return 1.0;
     }
     let wrapped = wrap_texel(texel, size);
+    if layer.growth.x > 0.0 {
+        // The automaton's column under the texel (Rust: `LayerGrowth::cover_at`).
+        let columns = vec2<u32>(layer.growth.zw);
+        let column = min((vec2<u32>(wrapped) * columns) / vec2<u32>(size), columns - 1u);
+        let cover = textureLoad(growth_cover, vec2<i32>(column), i32(layer.growth.y), 0).x;
+        return growth_coverage(coverage, cover);
+    }
     return local_coverage(coverage, textureLoad(weather_noise, wrapped, 0).x);
+}
+
+// Local coverage of a growing layer: the column's cloud fraction times the patch peak of
+// `local_coverage`, blending to 1 above OVERCAST_COVERAGE; 0 at coverage 0. Rust:
+// `growth_coverage`.
+fn growth_coverage(coverage: f32, cover: f32) -> f32 {
+    if !(coverage > 0.0) {
+        return 0.0;
+    }
+    let closing = saturate((coverage - CLOSING_COVERAGE) / (1.0 - CLOSING_COVERAGE));
+    let peak = mix(PATCH_COVERAGE, 1.0, closing);
+    let overcast = saturate((coverage - OVERCAST_COVERAGE) / (1.0 - OVERCAST_COVERAGE));
+    return max(saturate(cover / GROWTH_FULL_COVER) * peak, overcast);
 }
 
 // The skewed weather look-up in texel units, texel centres at integers:

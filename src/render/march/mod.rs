@@ -236,6 +236,7 @@ fn march_layout(label: &'static str, multisampled: bool) -> BindGroupLayoutDescr
                 texture_2d(TextureSampleType::Float { filterable: false }),
                 texture_2d(TextureSampleType::Float { filterable: false }),
                 texture_2d_array(TextureSampleType::Float { filterable: false }),
+                texture_2d_array(TextureSampleType::Float { filterable: false }),
             ),
         ),
     )

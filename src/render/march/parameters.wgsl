@@ -115,6 +115,9 @@ struct CloudLayerGpu {
     // The layer's slice of the weather map (Rust: `reference::weather_map`): xy the weather
     // texel at map texel (0, 0), z the array slice, w the side in texels (< 2: no map).
     weather_map: vec4<f32>,
+    // The growth automaton's clouds (Rust: `MarchLayer::growth`): x 1 when the layer grows, y its
+    // slice of `growth_cover`, zw the grid's columns along x and y.
+    growth: vec4<f32>,
 }
 
 @group(0) @binding(2) var<uniform> clouds: CloudUniforms;

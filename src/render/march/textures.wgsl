@@ -23,6 +23,10 @@
 // R32Float, BLUE_NOISE_SIZE², the ray-start jitter's blue noise (reference/blue_noise.rs). Bound
 // by the march pass only (binding 10).
 @group(0) @binding(10) var blue_noise: texture_2d<f32>;
+// R32Float array, one slice per growing layer (`CloudLayerGpu::growth`): each column's cloud
+// fraction from the growth automaton (src/render/growth/), a 1x1 stand-in without one. Bound by
+// every pass that reads the weather (binding 13).
+@group(0) @binding(13) var growth_cover: texture_2d_array<f32>;
 #ifdef WEATHER_MAP
 // R32Float array, one slice per layer: `weather_texel_coverage` around the camera, written each
 // frame by the weather-map pass (src/render/weather_map/). Bound by the march pass only (binding

@@ -69,8 +69,8 @@ use bevy::{
         render_asset::RenderAssets,
         render_resource::{
             binding_types::{
-                sampler, storage_buffer_read_only, texture_2d, texture_3d, texture_storage_2d,
-                uniform_buffer,
+                sampler, storage_buffer_read_only, texture_2d, texture_2d_array, texture_3d,
+                texture_storage_2d, uniform_buffer,
             },
             *,
         },
@@ -78,7 +78,7 @@ use bevy::{
             RenderAdapter, RenderContext, RenderDevice, RenderGraph, RenderGraphSystems,
             RenderQueue,
         },
-        texture::GpuImage,
+        texture::{FallbackImage, GpuImage},
     },
 };
 
@@ -86,7 +86,7 @@ use super::{
     VolumetricClouds,
     haze::CloudShadowFrame,
     noise::CloudNoiseTextures,
-    view::{CloudSun, GpuCloudLayer, GpuCloudUniforms, march_inputs},
+    view::{CloudSun, GpuCloudLayer, GpuCloudUniforms, LayerInput, march_inputs},
 };
 use crate::{
     CloudscapeSystems,
@@ -483,7 +483,7 @@ pub fn shadow_inputs<'a>(
     camera: &GlobalTransform,
     light: &GlobalTransform,
     sun: Option<&CloudSun>,
-    layers: impl IntoIterator<Item = (&'a CloudLayer, Option<&'a LayerDrift>)>,
+    layers: impl IntoIterator<Item = impl Into<LayerInput<'a>>>,
 ) -> Option<(MarchSettings, Vec<MarchLayer>, ShadowMapFrame)> {
     let settings = settings.sanitized();
     let (march, march_layers) = march_inputs(world, clouds, camera, 1.0e-3, sun, layers, 0);
@@ -523,7 +523,13 @@ fn extract_cloud_shadow(
     settings: Extract<Option<Res<CloudShadows>>>,
     map: Extract<Option<Res<CloudShadowMap>>>,
     cameras: Extract<Query<(&Camera, &VolumetricClouds, &GlobalTransform)>>,
-    layers: Extract<Query<(&CloudLayer, Option<&LayerDrift>)>>,
+    layers: Extract<
+        Query<(
+            &CloudLayer,
+            Option<&LayerDrift>,
+            Option<&crate::render::growth::GrowthRun>,
+        )>,
+    >,
     lights: Extract<
         Query<(
             &DirectionalLight,
@@ -565,7 +571,9 @@ fn extract_cloud_shadow(
         camera,
         light_transform,
         sun.as_ref(),
-        layers.iter(),
+        layers
+            .iter()
+            .map(|(layer, drift, run)| (layer, drift, run.map(|r| r.growth()))),
     ) {
         Some((march, layers, frame)) if settings.enabled && frame.size == map.resolution => {
             commands.insert_resource(CloudShadowFrame {
@@ -657,17 +665,25 @@ fn init_cloud_shadow_pipeline(
 ) {
     let layout = BindGroupLayoutDescriptor::new(
         "cloud_shadow_layout",
-        &BindGroupLayoutEntries::sequential(
+        &BindGroupLayoutEntries::with_indices(
             ShaderStages::COMPUTE,
             (
-                texture_storage_2d(SHADOW_MAP_FORMAT, StorageTextureAccess::WriteOnly),
-                uniform_buffer::<GpuShadowUniforms>(false),
-                uniform_buffer::<GpuCloudUniforms>(false),
-                storage_buffer_read_only::<GpuCloudLayer>(false),
-                texture_3d(TextureSampleType::Float { filterable: true }),
-                texture_3d(TextureSampleType::Float { filterable: true }),
-                texture_2d(TextureSampleType::Float { filterable: true }),
-                sampler(SamplerBindingType::Filtering),
+                (
+                    0,
+                    texture_storage_2d(SHADOW_MAP_FORMAT, StorageTextureAccess::WriteOnly),
+                ),
+                (1, uniform_buffer::<GpuShadowUniforms>(false)),
+                (2, uniform_buffer::<GpuCloudUniforms>(false)),
+                (3, storage_buffer_read_only::<GpuCloudLayer>(false)),
+                (4, texture_3d(TextureSampleType::Float { filterable: true })),
+                (5, texture_3d(TextureSampleType::Float { filterable: true })),
+                (6, texture_2d(TextureSampleType::Float { filterable: true })),
+                (7, sampler(SamplerBindingType::Filtering)),
+                // The growing layers' cover (`textures.wgsl`).
+                (
+                    13,
+                    texture_2d_array(TextureSampleType::Float { filterable: false }),
+                ),
             ),
         ),
     );
@@ -742,6 +758,8 @@ fn prepare_cloud_shadow(
     pipeline_cache: Res<PipelineCache>,
     device: Res<RenderDevice>,
     queue: Res<RenderQueue>,
+    growth: Option<Res<crate::render::growth::ExtractedGrowth>>,
+    fallback: Res<FallbackImage>,
     mut state: ResMut<ShadowMapState>,
     mut stats: ResMut<CloudShadowStats>,
 ) {
@@ -816,18 +834,21 @@ fn prepare_cloud_shadow(
             ) else {
                 return;
             };
+            let growth_cover =
+                crate::render::growth::growth_cover_view(growth.as_deref(), &images, &fallback);
             let bind_group = device.create_bind_group(
                 "cloud_shadow_bind_group",
                 &pipeline_cache.get_bind_group_layout(&pipeline.layout),
-                &BindGroupEntries::sequential((
-                    &gpu.texture_view,
-                    shadow_uniforms,
-                    cloud_uniforms,
-                    layer_buffer,
-                    &noise.base.view,
-                    &noise.detail.view,
-                    &noise.weather.view,
-                    &noise.sampler,
+                &BindGroupEntries::with_indices((
+                    (0, &gpu.texture_view),
+                    (1, shadow_uniforms),
+                    (2, cloud_uniforms),
+                    (3, layer_buffer),
+                    (4, &noise.base.view),
+                    (5, &noise.detail.view),
+                    (6, &noise.weather.view),
+                    (7, &noise.sampler),
+                    (13, growth_cover),
                 )),
             );
             commands.insert_resource(PreparedCloudShadow {

@@ -38,13 +38,16 @@ use bevy::{
     asset::{embedded_asset, load_embedded_asset},
     prelude::*,
     render::{
+        render_asset::RenderAssets,
         render_resource::{
             binding_types::{
-                storage_buffer_read_only, texture_2d, texture_storage_2d_array, uniform_buffer,
+                storage_buffer_read_only, texture_2d, texture_2d_array, texture_storage_2d_array,
+                uniform_buffer,
             },
             *,
         },
         renderer::{RenderDevice, RenderQueue},
+        texture::{FallbackImage, GpuImage},
     },
 };
 
@@ -109,6 +112,10 @@ pub(crate) fn init_cloud_weather_map_pipeline(
                 (1, uniform_buffer::<GpuWeatherMapUniforms>(false)),
                 (3, storage_buffer_read_only::<GpuCloudLayer>(false)),
                 (6, texture_2d(TextureSampleType::Float { filterable: true })),
+                (
+                    13,
+                    texture_2d_array(TextureSampleType::Float { filterable: false }),
+                ),
             ),
         ),
     );
@@ -239,7 +246,12 @@ pub(crate) fn prepare_weather_maps(
     pipeline_cache: Res<PipelineCache>,
     device: Res<RenderDevice>,
     queue: Res<RenderQueue>,
+    growth: Option<Res<crate::render::growth::ExtractedGrowth>>,
+    images: Res<RenderAssets<GpuImage>>,
+    fallback: Res<FallbackImage>,
 ) {
+    let growth_cover =
+        crate::render::growth::growth_cover_view(growth.as_deref(), &images, &fallback);
     for (entity, buffers, existing) in &mut views {
         let (size, slices) = buffers.weather_map.unwrap_or((1, 1));
         let mut fresh = None;
@@ -270,6 +282,7 @@ pub(crate) fn prepare_weather_maps(
                         (1, uniforms),
                         (3, layers),
                         (6, &noise.weather.view),
+                        (13, growth_cover),
                     )),
                 ));
             }
