@@ -63,7 +63,7 @@ pub mod world;
 
 /// Everything a game needs to add clouds, in one import.
 pub mod prelude {
-    pub use crate::layers::{CloudKind, CloudLayer, DensityProfile, LayerTransition};
+    pub use crate::layers::{CloudGrowth, CloudKind, CloudLayer, DensityProfile, LayerTransition};
     pub use crate::precipitation::{
         PrecipitationPlugin, PrecipitationSettings, PrecipitationState,
     };

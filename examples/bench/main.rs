@@ -146,7 +146,7 @@ struct Args {
     #[arg(long)]
     shadows: bool,
     /// Time one step of the cloud-growth automaton at several grid sizes instead (writes
-    /// `growth.csv`: `width,length,depth,cells,ms_per_step`).
+    /// `growth.csv`: `width,length,depth,cells,ms_per_step,ms_per_cover`).
     #[arg(long)]
     growth: bool,
     /// Primary steps of the reference.
@@ -784,9 +784,16 @@ fn cached_reference(args: &Args, rig: &mut CloudRig, scene: &Scene) -> Result<Me
 const GROWTH_SIZES: [[u32; 3]; 4] = [[64, 64, 16], [100, 100, 10], [128, 128, 16], [256, 256, 16]];
 
 /// Times one automaton step per grid size: `--frames` × 4 steps submitted at once and read back,
-/// less a read-back alone, over the steps (the median of five such runs).
+/// less a read-back alone, over the steps (the median of five such runs); then the same for the
+/// cover pass each step is followed by (`GrowthCompute::write_cover`).
 fn time_growth(args: &Args) -> Result<(), String> {
-    use bevy::render::renderer::{RenderDevice, RenderQueue};
+    use bevy::render::{
+        render_resource::{
+            Extent3d, TextureDescriptor, TextureDimension, TextureFormat, TextureUsages,
+            TextureViewDescriptor,
+        },
+        renderer::{RenderDevice, RenderQueue},
+    };
     use bevy_cloudscape::{
         reference::growth::{GrowthGrid, probability_threshold},
         render::growth::GrowthCompute,
@@ -801,7 +808,7 @@ fn time_growth(args: &Args) -> Result<(), String> {
     let columns = [[probability_threshold(0.3), probability_threshold(0.001)]];
     let extinction = probability_threshold(0.02);
     let steps = 4 * args.frames;
-    let mut csv = String::from("width,length,depth,cells,ms_per_step\n");
+    let mut csv = String::from("width,length,depth,cells,ms_per_step,ms_per_cover\n");
     for size in GROWTH_SIZES {
         let grid = GrowthGrid::new(size);
         let mut gpu = GrowthCompute::new(&device, &grid, &columns);
@@ -822,13 +829,42 @@ fn time_growth(args: &Args) -> Result<(), String> {
             .collect();
         per_step.sort_by(f64::total_cmp);
         let ms = per_step[2];
+        // The cover the weather reads after a step (column counts and their 5 x 5 mean).
+        let texture = device.create_texture(&TextureDescriptor {
+            label: Some("growth bench cover"),
+            size: Extent3d {
+                width: size[0],
+                height: size[1],
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: TextureDimension::D2,
+            format: TextureFormat::R32Float,
+            usage: TextureUsages::STORAGE_BINDING,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&TextureViewDescriptor::default());
+        let mut per_cover: Vec<f64> = (0..5)
+            .map(|_| {
+                let readback = run(&mut gpu, &mut app, 0);
+                let start = std::time::Instant::now();
+                for _ in 0..steps {
+                    gpu.write_cover(&device, &queue, &view);
+                }
+                app.read_buffer(gpu.cells(), 0, 4);
+                (start.elapsed().as_secs_f64() * 1000.0 - readback).max(0.0) / f64::from(steps)
+            })
+            .collect();
+        per_cover.sort_by(f64::total_cmp);
+        let cover_ms = per_cover[2];
         let cells = size.iter().product::<u32>();
         println!(
-            "growth {}x{}x{} ({cells} cells): {ms:.3} ms per step",
+            "growth {}x{}x{} ({cells} cells): {ms:.3} ms per step, {cover_ms:.3} ms per cover",
             size[0], size[1], size[2]
         );
         csv.push_str(&format!(
-            "{},{},{},{cells},{ms:.4}\n",
+            "{},{},{},{cells},{ms:.4},{cover_ms:.4}\n",
             size[0], size[1], size[2]
         ));
     }

@@ -26,6 +26,8 @@ pub(crate) struct BernOptions {
     pub(crate) clouds: bool,
     /// `--azimuth`: the view direction, degrees clockwise from north.
     pub(crate) azimuth_deg: Option<f32>,
+    /// `--growth`: the low clouds grow with the automaton (`CloudGrowth`).
+    pub(crate) growth: bool,
 }
 
 /// The Bern demo; the flags are explained at the top of `examples/bern.rs`.
@@ -85,6 +87,10 @@ pub(crate) struct Cli {
     /// Log frame and render-pass times every second.
     #[arg(long)]
     pub(crate) log_frame_times: bool,
+    /// Grow the low clouds with the cloud-growth automaton (they form and dissolve as the
+    /// forecast's low cover rises and falls).
+    #[arg(long)]
+    pub(crate) growth: bool,
 }
 
 impl Cli {
@@ -122,6 +128,7 @@ impl Cli {
             log_frame_times: self.log_frame_times,
             clouds: !self.no_clouds,
             azimuth_deg: self.azimuth,
+            growth: self.growth,
         };
         Ok((args, options))
     }

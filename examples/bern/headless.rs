@@ -50,3 +50,15 @@ pub(crate) fn cut_transitions(
         haze.duration_s = 0.0;
     }
 }
+
+/// A time-lapse image of growing clouds (`--growth`) waits until the automaton has caught up
+/// with the scene time, so each image shows the clouds of its time, settled in the temporal
+/// accumulation.
+pub(crate) fn wait_for_growth(
+    mut progress: ResMut<HeadlessProgress>,
+    runs: Query<&bevy_cloudscape::render::growth::GrowthRun>,
+) {
+    if runs.iter().any(|run| !run.is_idle()) {
+        progress.ready = false;
+    }
+}

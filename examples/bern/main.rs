@@ -46,6 +46,7 @@
 //! | `--azimuth DEG` | look this way from the view's hill, degrees clockwise from north (toward a low sun for light shafts) | the view's own: Gurten 20°, Bantiger 225° |
 //! | `--no-clouds` | no `VolumetricClouds` on the camera: the same frame without clouds (CI compares the two) | clouds on |
 //! | `--log-frame-times` | log the frame time and the cloud passes' GPU times every second | off |
+//! | `--growth` | the low clouds grow with the cloud-growth automaton: they form and dissolve as the low cover changes | off |
 //! | `--no-cloud-shadows` | turn the cloud shadow map off (to compare, or to time its cost) | on |
 //! | `--dem PATH` | elevation file (ESRI ASCII grid or `GeoTIFF`, WGS 84 degrees) | `assets/terrain/bern_globe30s.asc` |
 //!
@@ -198,6 +199,9 @@ fn main() -> AppExit {
                 follow_headless_shots.before(CloudscapeSystems::Clock),
                 cut_transitions.before(CloudscapeSystems::Layers),
                 wait_for_forecasts.after(CloudscapeSystems::Layers),
+                wait_for_growth
+                    .after(wait_for_forecasts)
+                    .after(CloudscapeSystems::Sun),
             ),
         );
     } else {

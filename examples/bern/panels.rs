@@ -526,6 +526,12 @@ fn inspector_window(world: &mut World) {
                             } else {
                                 edit_component::<CloudLayer>(world, *entity, ui);
                             }
+                            // `--growth`: the automaton's noise makers and probabilities, live.
+                            if world.get::<CloudGrowth>(*entity).is_some() {
+                                ui.separator();
+                                ui.label("growth (a new grid or seed starts it over)");
+                                edit_component::<CloudGrowth>(world, *entity, ui);
+                            }
                         });
                 }
                 for camera in &cameras {

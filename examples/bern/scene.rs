@@ -105,5 +105,21 @@ pub(crate) fn spawn_scene(
         [view.viewpoint.far_forecast().into()],
     ));
     commands.insert_resource(FarForecasts(far));
-    spawn_weather_layers(&mut commands);
+    let layers = spawn_weather_layers(&mut commands);
+    if options.growth {
+        // The low slot's layer: cumulus and stratocumulus form and dissolve with its cover.
+        let low = LayerSlot::ALL.iter().position(|s| *s == LayerSlot::Low);
+        if let Some(&entity) = low.and_then(|i| layers.get(i)) {
+            let maker = bevy_cloudscape::layers::NoiseMaker {
+                increment: [0.08, 0.08],
+                ..default()
+            };
+            commands.entity(entity).insert(CloudGrowth {
+                grid: [96, 96, 16],
+                humidity: maker.clone(),
+                activation: bevy_cloudscape::layers::NoiseMaker { seed: 1, ..maker },
+                ..default()
+            });
+        }
+    }
 }

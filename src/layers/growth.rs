@@ -126,6 +126,15 @@ impl NoiseMaker {
 
 /// Grows the clouds of the layer it sits on with the automaton, instead of the weather noise's
 /// fixed pattern. Add it to a layer to turn growth on; a layer without it costs nothing extra.
+///
+/// The automaton runs on the GPU ([`crate::render::growth`]), one step per
+/// [`steps_per_hour`](Self::steps_per_hour) of the [`SceneClock`](crate::scene::SceneClock)'s
+/// time, each step after the cover of the last one has been read back (so at most one step
+/// every frame or two). A run starts at the layer's coverage ([`CloudGrowth::initial_grid`]);
+/// a new [`grid`](Self::grid) or [`seed`](Self::seed) starts it over, the other fields apply to
+/// the next step. The grid spans one period of the layer's weather pattern
+/// (`CloudLayer::weather_map_scale_m`): fewer columns give larger clouds. Without a renderer
+/// the layer keeps its first grid.
 #[derive(Component, Clone, Debug, PartialEq, Reflect)]
 #[reflect(Component, Default)]
 pub struct CloudGrowth {
@@ -217,13 +226,13 @@ impl CloudGrowth {
         }
     }
 
-    /// The grid a run starts from: the `coverage` (0–1) share of the columns where the
-    /// humidity field is highest full of humid cloud, the rest clear, so a layer that starts
-    /// growing shows about its coverage at once, where clouds would grow anyway.
+    /// The grid a run starts from: the columns where the humidity field is highest full of humid
+    /// cloud, as many as leave [`covered_fraction`] at `coverage` (0–1) or just under it, the
+    /// rest clear; so a layer that starts growing shows about its coverage at once, where clouds
+    /// would grow anyway.
     #[must_use]
     pub fn initial_grid(&self, coverage: f32) -> GrowthGrid {
         let size = self.grid;
-        let mut grid = GrowthGrid::new(size);
         let humidity = self.humidity.field([size[0], size[1]]);
         let mut order: Vec<usize> = (0..humidity.len()).collect();
         order.sort_by(|&a, &b| humidity[b].total_cmp(&humidity[a]).then(a.cmp(&b)));
@@ -232,14 +241,28 @@ impl CloudGrowth {
         } else {
             coverage.clamp(0.0, 1.0)
         };
-        let cloudy = (coverage * humidity.len() as f32).round() as usize;
-        let columns = (size[0] * size[1]) as usize;
-        for &column in &order[..cloudy.min(order.len())] {
-            for z in 0..size[2] as usize {
-                grid.cells[column + columns * z] = HUM | CLD;
+        let columns = humidity.len();
+        let grid_of = |cloudy: usize| {
+            let mut grid = GrowthGrid::new(size);
+            for &column in &order[..cloudy] {
+                for z in 0..size[2] as usize {
+                    grid.cells[column + columns * z] = HUM | CLD;
+                }
+            }
+            grid
+        };
+        // The covered fraction grows with the cloudy columns: the most that stay at or under
+        // the coverage.
+        let (mut low, mut high) = (0, columns);
+        while low < high {
+            let mid = (low + high).div_ceil(2);
+            if covered_fraction(&grid_of(mid)) <= coverage {
+                low = mid;
+            } else {
+                high = mid - 1;
             }
         }
-        grid
+        grid_of(low)
     }
 
     /// The per-column humidity and activation thresholds ([`GrowthGrid::step`]'s `columns`)
@@ -262,11 +285,22 @@ impl CloudGrowth {
     }
 }
 
-/// The fraction of a grid's columns that hold cloud: the sky it covers, seen from below.
+/// The fraction of a grid's columns that hold visible cloud: the sky it covers, seen from
+/// below ([`covered_share`] of its [`GrowthGrid::smoothed_cover`]).
 #[must_use]
 pub fn covered_fraction(grid: &GrowthGrid) -> f32 {
-    let cover = grid.column_cover();
-    cover.iter().filter(|&&c| c > 0.0).count() as f32 / cover.len().max(1) as f32
+    covered_share(&grid.smoothed_cover())
+}
+
+/// The smoothed cover from which a column counts as covered: half of what makes a full cloudy
+/// patch ([`GROWTH_FULL_COVER`](crate::reference::render::GROWTH_FULL_COVER)), where the
+/// shape noise starts to leave cloud.
+pub const COVERED_FROM: f32 = (0.5 * crate::reference::render::GROWTH_FULL_COVER) as f32;
+
+/// The share of `cover` (a [`GrowthGrid::smoothed_cover`]) at or above [`COVERED_FROM`], 0–1.
+#[must_use]
+pub fn covered_share(cover: &[f32]) -> f32 {
+    cover.iter().filter(|&&c| c >= COVERED_FROM).count() as f32 / cover.len().max(1) as f32
 }
 
 /// Steers formation and evaporation so that the covered fraction follows the layer's coverage:
@@ -418,6 +452,22 @@ mod tests {
     }
 
     #[test]
+    fn a_run_starts_at_its_coverage() {
+        let growth = CloudGrowth {
+            grid: [48, 40, 4],
+            ..CloudGrowth::default()
+        };
+        for coverage in [0.0, 0.2, 0.5, 0.9, 1.0] {
+            let covered = covered_fraction(&growth.initial_grid(coverage));
+            assert!(
+                covered <= coverage && covered > coverage - 0.05,
+                "{covered} for {coverage}"
+            );
+        }
+        assert_eq!(covered_fraction(&growth.initial_grid(f32::NAN)), 0.0);
+    }
+
+    #[test]
     fn covered_regions_wrap_around_the_grid() {
         // Two covered columns at opposite edges of a row are one region on the torus.
         let mut cover = vec![0.0; 16];
@@ -496,10 +546,17 @@ mod tests {
         settled(&settle, 0.2);
 
         // An hour rising to 60 %, then three hours there.
-        let before = grid.column_cover();
+        let visible = |grid: &GrowthGrid| -> Vec<f32> {
+            let cover = grid.smoothed_cover();
+            cover
+                .iter()
+                .map(|&c| if c >= COVERED_FROM { 1.0 } else { 0.0 })
+                .collect()
+        };
+        let before = visible(&grid);
         let rise = |step: u32| 0.2 + 0.4 * ((step - 4 * hour) as f32 / hour as f32).min(1.0);
         run(&mut grid, &growth, &mut steering, 4 * hour..5 * hour, rise);
-        let after_rise = grid.column_cover();
+        let after_rise = visible(&grid);
         let held = run(
             &mut grid,
             &growth,

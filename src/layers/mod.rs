@@ -91,9 +91,12 @@ use bevy::prelude::{Component, Reflect, ReflectComponent, ReflectDefault};
 
 pub use drift::LayerDrift;
 pub(crate) use drift::drift_cloud_layers;
-pub use growth::{CloudGrowth, NoiseMaker};
 #[doc(hidden)]
-pub use growth::{GrowthProbabilities, GrowthSteering, covered_fraction, covered_regions};
+pub use growth::{
+    COVERED_FROM, GrowthProbabilities, GrowthSteering, covered_fraction, covered_regions,
+    covered_share,
+};
+pub use growth::{CloudGrowth, NoiseMaker};
 pub use haze::{Haze, KOSCHMIEDER_CONSTANT};
 pub use kind::{CloudKind, KindDefaults};
 pub use profile::{DensityProfile, ProfileInterpolation, ProfilePoint};

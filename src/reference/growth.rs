@@ -85,6 +85,10 @@ pub const NEIGHBOURS: [[i32; 3]; 11] = [
     [0, 0, -2],
 ];
 
+/// Columns on each side of a column whose cloud [`GrowthGrid::smoothed_cover`] averages.
+/// WGSL: `COVER_RADIUS` in `growth.wgsl`.
+pub const COVER_RADIUS: u32 = 2;
+
 /// A grid of cells, `size[0] × size[1]` columns of `size[2]` cells, stored x fastest, then y,
 /// then z (index `x + size[0]·(y + size[1]·z)`).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -156,8 +160,51 @@ impl GrowthGrid {
         self.cells = next;
     }
 
-    /// The fraction of each column's cells that are cloud, x fastest: the covered fraction the
-    /// weather map reads.
+    /// The cloud the weather reads, per column, x fastest: the fraction of cloud cells among
+    /// the `(2 COVER_RADIUS + 1)²` columns around it (wrapping), so the automaton's cell-sized
+    /// speckle becomes a cloud with soft edges (Dobashi et al. 2000 smooth their binary field
+    /// the same way). The sum is counted in integers and divided once, so the GPU
+    /// (`column_cover` in `growth.wgsl`) gives the same bits.
+    #[must_use]
+    pub fn smoothed_cover(&self) -> Vec<f32> {
+        let [nx, ny, nz] = self.size;
+        let counts = self.column_counts();
+        let r = COVER_RADIUS as i64;
+        let cells = ((2 * r + 1) * (2 * r + 1)) as u32 * nz;
+        let wrap = |v: u32, d: i64, n: u32| (i64::from(v) + d).rem_euclid(i64::from(n)) as u32;
+        let mut cover = Vec::with_capacity((nx * ny) as usize);
+        for y in 0..ny {
+            for x in 0..nx {
+                let mut sum = 0u32;
+                for dy in -r..=r {
+                    for dx in -r..=r {
+                        sum += counts[(wrap(x, dx, nx) + nx * wrap(y, dy, ny)) as usize];
+                    }
+                }
+                cover.push(sum as f32 / cells as f32);
+            }
+        }
+        cover
+    }
+
+    /// The number of cloud cells in each column, x fastest.
+    #[must_use]
+    pub fn column_counts(&self) -> Vec<u32> {
+        let [nx, ny, nz] = self.size;
+        let mut counts = vec![0; (nx * ny) as usize];
+        for z in 0..nz {
+            for y in 0..ny {
+                for x in 0..nx {
+                    if self.cells[self.index(x, y, z)] & CLD != 0 {
+                        counts[(x + nx * y) as usize] += 1;
+                    }
+                }
+            }
+        }
+        counts
+    }
+
+    /// The fraction of each column's cells that are cloud, x fastest.
     #[must_use]
     pub fn column_cover(&self) -> Vec<f32> {
         let [nx, ny, nz] = self.size;

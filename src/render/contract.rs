@@ -189,6 +189,7 @@ fn rust_constants() -> Vec<(&'static str, Vec<f64>)> {
         ("HUM", scalar(growth::HUM.into())),
         ("ACT", scalar(growth::ACT.into())),
         ("CLD", scalar(growth::CLD.into())),
+        ("COVER_RADIUS", scalar(growth::COVER_RADIUS.into())),
         // Which fBm a noise octave sums; the CPU twin passes the function itself.
         ("OCTAVE_PERLIN", scalar(0.0)),
         ("OCTAVE_WORLEY", scalar(1.0)),

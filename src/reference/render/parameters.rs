@@ -223,7 +223,7 @@ pub struct LayerGrowth {
     /// The layer's slice of the GPU's growth-cover array (WGSL: `growth_cover`).
     pub slice: u32,
     /// Each column's cloud fraction, 0–1, x fastest: `size[0] · size[1]` values
-    /// ([`GrowthGrid::column_cover`](crate::reference::growth::GrowthGrid::column_cover)); a
+    /// ([`GrowthGrid::smoothed_cover`](crate::reference::growth::GrowthGrid::smoothed_cover)); a
     /// shorter slice reads 0 past its end.
     pub cover: std::sync::Arc<[f32]>,
 }

@@ -89,12 +89,17 @@ fn grow(@builtin(global_invocation_id) id: vec3<u32>) {
     cells_out[i] = select(0u, HUM, hum_next) | select(0u, ACT, act_next) | select(0u, CLD, cld_next);
 }
 
-// Each column's cloud fraction, for the weather (entry `column_cover`, bindings 0, 3 and 4): the
-// number of cloud cells over the cells in the column. Rust: `GrowthGrid::column_cover`.
+// Each column's cloud count (entry `column_counts`, bindings 0, 3 and 5), then the cloud the
+// weather reads (entry `column_cover`, bindings 3, 4 and 5): the cloud cells among the
+// (2 COVER_RADIUS + 1)^2 columns around the column over all their cells. Rust:
+// `GrowthGrid::column_counts`, `GrowthGrid::smoothed_cover`.
+const COVER_RADIUS: i32 = 2;
+
 @group(0) @binding(4) var cover_out: texture_storage_2d<r32float, write>;
+@group(0) @binding(5) var<storage, read_write> counts: array<u32>;
 
 @compute @workgroup_size(8, 8, 1)
-fn column_cover(@builtin(global_invocation_id) id: vec3<u32>) {
+fn column_counts(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= growth.size.x || id.y >= growth.size.y {
         return;
     }
@@ -104,5 +109,23 @@ fn column_cover(@builtin(global_invocation_id) id: vec3<u32>) {
             count += 1u;
         }
     }
-    textureStore(cover_out, vec2<i32>(id.xy), vec4<f32>(f32(count) / f32(growth.size.z), 0.0, 0.0, 0.0));
+    counts[id.x + growth.size.x * id.y] = count;
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn column_cover(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= growth.size.x || id.y >= growth.size.y {
+        return;
+    }
+    var sum = 0u;
+    for (var dy = -COVER_RADIUS; dy <= COVER_RADIUS; dy++) {
+        for (var dx = -COVER_RADIUS; dx <= COVER_RADIUS; dx++) {
+            let x = wrap(id.x, dx, growth.size.x);
+            let y = wrap(id.y, dy, growth.size.y);
+            sum += counts[x + growth.size.x * y];
+        }
+    }
+    let side = u32(2 * COVER_RADIUS + 1);
+    let cells = side * side * growth.size.z;
+    textureStore(cover_out, vec2<i32>(id.xy), vec4<f32>(f32(sum) / f32(cells), 0.0, 0.0, 0.0));
 }

@@ -2,8 +2,11 @@
 //! ping-ponging two storage buffers (`growth.wgsl`). The rules and the CPU twin that gives the
 //! same bits are in [`crate::reference::growth`].
 //!
-//! [`GrowthCompute`] owns the pipeline and the buffers and steps them on a [`RenderDevice`] and
-//! [`RenderQueue`]: the GPU tests and the bench drive it directly.
+//! [`GrowthCompute`] owns the pipeline and the buffers, steps them on a [`RenderDevice`] and
+//! [`RenderQueue`] and writes each column's cloud fraction into a texture; the GPU tests and the
+//! bench drive it directly. [`CloudRenderPlugin`](super::CloudRenderPlugin) runs one for every
+//! layer with a [`CloudGrowth`](crate::layers::CloudGrowth) and hands its cover to the weather
+//! (one step per read-back of its cover: [`MAX_STEPS_PER_FRAME`], [`MAX_STEPS_DUE`]).
 
 use bevy::render::{
     render_resource::{
@@ -49,8 +52,12 @@ pub struct GrowthCompute {
     size: [u32; 3],
     pipeline: ComputePipeline,
     layout: BindGroupLayout,
+    counts_pipeline: ComputePipeline,
+    counts_layout: BindGroupLayout,
     cover_pipeline: ComputePipeline,
     cover_layout: BindGroupLayout,
+    /// Cloud cells per column (`u32`, x fastest), between the two passes of `write_cover`.
+    counts: Buffer,
     cells: [Buffer; 2],
     columns: Buffer,
     per_column: bool,
@@ -126,12 +133,22 @@ impl GrowthCompute {
             compilation_options: PipelineCompilationOptions::default(),
             cache: None,
         });
+        let counts_layout = device.create_bind_group_layout(
+            "cloud growth counts layout",
+            &BindGroupLayoutEntries::with_indices(
+                ShaderStages::COMPUTE,
+                (
+                    (0, storage_buffer_read_only_sized(false, None)),
+                    (3, uniform_buffer::<GpuGrowthUniforms>(false)),
+                    (5, storage_buffer_sized(false, None)),
+                ),
+            ),
+        );
         let cover_layout = device.create_bind_group_layout(
             "cloud growth cover layout",
             &BindGroupLayoutEntries::with_indices(
                 ShaderStages::COMPUTE,
                 (
-                    (0, storage_buffer_read_only_sized(false, None)),
                     (3, uniform_buffer::<GpuGrowthUniforms>(false)),
                     (
                         4,
@@ -140,9 +157,29 @@ impl GrowthCompute {
                             StorageTextureAccess::WriteOnly,
                         ),
                     ),
+                    (5, storage_buffer_sized(false, None)),
                 ),
             ),
         );
+        let counts_pipeline_layout = device.create_pipeline_layout(&PipelineLayoutDescriptor {
+            label: Some("cloud growth counts pipeline layout"),
+            bind_group_layouts: &[Some(&counts_layout)],
+            immediate_size: 0,
+        });
+        let counts_pipeline = device.create_compute_pipeline(&RawComputePipelineDescriptor {
+            label: Some("cloud growth counts"),
+            layout: Some(&counts_pipeline_layout),
+            module: &module,
+            entry_point: Some("column_counts"),
+            compilation_options: PipelineCompilationOptions::default(),
+            cache: None,
+        });
+        let counts = device.create_buffer(&BufferDescriptor {
+            label: Some("cloud growth column counts"),
+            size: u64::from(size[0] * size[1]) * 4,
+            usage: BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
         let cover_pipeline_layout = device.create_pipeline_layout(&PipelineLayoutDescriptor {
             label: Some("cloud growth cover pipeline layout"),
             bind_group_layouts: &[Some(&cover_layout)],
@@ -160,8 +197,11 @@ impl GrowthCompute {
             size,
             pipeline,
             layout,
+            counts_pipeline,
+            counts_layout,
             cover_pipeline,
             cover_layout,
+            counts,
             cells,
             columns: columns_buffer,
             per_column: columns.len() > 1,
@@ -245,7 +285,7 @@ impl GrowthCompute {
         queue.write_buffer(&self.columns, 0, &bytes);
     }
 
-    /// Writes each column's cloud fraction ([`GrowthGrid::column_cover`], bit for bit) into
+    /// Writes the cloud the weather reads ([`GrowthGrid::smoothed_cover`], bit for bit) into
     /// `cover`, an `R32Float` view of at least `size[0] × size[1]` texels, and submits it.
     pub fn write_cover(&self, device: &RenderDevice, queue: &RenderQueue, cover: &TextureView) {
         let mut uniforms = UniformBuffer::from(GpuGrowthUniforms {
@@ -256,13 +296,22 @@ impl GrowthCompute {
         let Some(binding) = uniforms.binding() else {
             return;
         };
-        let bind_group = device.create_bind_group(
+        let counts_group = device.create_bind_group(
+            "cloud growth counts bind group",
+            &self.counts_layout,
+            &BindGroupEntries::with_indices((
+                (0, self.cells[self.current].as_entire_binding()),
+                (3, binding.clone()),
+                (5, self.counts.as_entire_binding()),
+            )),
+        );
+        let cover_group = device.create_bind_group(
             "cloud growth cover bind group",
             &self.cover_layout,
             &BindGroupEntries::with_indices((
-                (0, self.cells[self.current].as_entire_binding()),
                 (3, binding),
                 (4, cover),
+                (5, self.counts.as_entire_binding()),
             )),
         );
         let mut encoder = device.create_command_encoder(&CommandEncoderDescriptor {
@@ -273,13 +322,16 @@ impl GrowthCompute {
                 label: Some("cloud growth cover"),
                 timestamp_writes: None,
             });
-            pass.set_pipeline(&self.cover_pipeline);
-            pass.set_bind_group(0, &*bind_group, &[]);
-            pass.dispatch_workgroups(
+            let groups = [
                 self.size[0].div_ceil(WORKGROUP),
                 self.size[1].div_ceil(WORKGROUP),
-                1,
-            );
+            ];
+            pass.set_pipeline(&self.counts_pipeline);
+            pass.set_bind_group(0, &*counts_group, &[]);
+            pass.dispatch_workgroups(groups[0], groups[1], 1);
+            pass.set_pipeline(&self.cover_pipeline);
+            pass.set_bind_group(0, &*cover_group, &[]);
+            pass.dispatch_workgroups(groups[0], groups[1], 1);
         }
         queue.submit([encoder.finish()]);
     }

@@ -50,8 +50,9 @@ use crate::{
 /// (at 60 frames a second, up to about 30 steps, 15 scene hours, a second).
 pub const MAX_STEPS_PER_FRAME: u32 = 1;
 
-/// Most steps a run keeps due: scene time that jumps further ahead (a scrub) drops the rest.
-pub const MAX_STEPS_DUE: f64 = 16.0;
+/// Most steps a run keeps due (two hours at the default rate): they run one per read-back in
+/// the frames after a jump of the scene time; a longer jump drops the rest.
+pub const MAX_STEPS_DUE: f64 = 240.0;
 
 /// Bytes per row of a texture copied into a buffer (wgpu's `COPY_BYTES_PER_ROW_ALIGNMENT`).
 const ROW_ALIGNMENT: usize = 256;
@@ -164,6 +165,13 @@ impl GrowthRun {
         self.awaiting_cover
     }
 
+    /// Whether the automaton has caught up with the scene time: no step due and none waiting
+    /// for its cover.
+    #[must_use]
+    pub fn is_idle(&self) -> bool {
+        !self.awaiting_cover && self.steps_due < 1.0
+    }
+
     /// Automaton steps run since the layer started growing.
     #[must_use]
     pub fn steps_done(&self) -> u64 {
@@ -263,7 +271,7 @@ pub(crate) fn run_cloud_growth(
                     growth: LayerGrowth {
                         size: [config.grid[0], config.grid[1]],
                         slice,
-                        cover: initial.column_cover().into(),
+                        cover: initial.smoothed_cover().into(),
                     },
                     job: None,
                     initial: Some(initial.cells.into()),
@@ -368,7 +376,7 @@ fn read_growth_cover(
                     .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])),
             );
         }
-        run.covered = cover.iter().filter(|&&c| c > 0.0).count() as f32 / cover.len().max(1) as f32;
+        run.covered = crate::layers::covered_share(&cover);
         run.growth.cover = cover.into();
         run.awaiting_cover = false;
     }
