@@ -452,6 +452,28 @@ mod tests {
     }
 
     #[test]
+    fn out_of_range_growth_settings_are_clamped_and_nan_is_the_default() {
+        let default = CloudGrowth::default();
+        let bad = CloudGrowth {
+            grid: [0, 5000, 0],
+            humidity_probability: f32::NAN,
+            activation_probability: -1.0,
+            extinction_probability: 7.0,
+            steps_per_hour: f32::INFINITY,
+            ..default.clone()
+        };
+        let fixed = bad.sanitized();
+        assert_eq!(fixed.grid, [8, 1024, 1]);
+        assert_eq!(fixed.humidity_probability, default.humidity_probability);
+        assert_eq!(fixed.activation_probability, 0.0);
+        assert_eq!(fixed.extinction_probability, 1.0);
+        assert_eq!(fixed.steps_per_hour, 36_000.0);
+        assert_eq!(default.sanitized(), default, "the defaults are in range");
+        // A grid the sanitized settings start is as large as they say.
+        assert_eq!(fixed.initial_grid(0.5).cells.len(), 8 * 1024);
+    }
+
+    #[test]
     fn a_run_starts_at_its_coverage() {
         let growth = CloudGrowth {
             grid: [48, 40, 4],
