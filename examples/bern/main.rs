@@ -25,8 +25,10 @@
 //! "now", play/pause, 1×/60×/3600×) and **Play** mode (the weather presets, and sliders for low,
 //! mid and high cover, precipitation, showers, wind, visibility, fog, temperature and time of
 //! day, which drive the layers through the crate's own weather mapping), the transition time of
-//! every change, the frame rate and the cloud passes' GPU times, the photo overlay's settings,
-//! and an inspector for every `CloudLayer` and the camera's `VolumetricClouds`.
+//! every change, a checkbox that lets the low clouds form and dissolve (`CloudGrowth`, as
+//! `--growth`), the frame rate and the cloud passes' GPU times, the photo overlay's settings,
+//! and an inspector for every `CloudLayer` (and its `CloudGrowth`) and the camera's
+//! `VolumetricClouds`.
 //!
 //! # Flags
 //!

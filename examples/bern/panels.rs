@@ -34,7 +34,7 @@ impl Plugin for PanelPlugin {
         )
         .add_systems(
             Update,
-            (apply_panel, drive_play_layers)
+            (apply_panel, drive_play_layers, toggle_growth)
                 .chain()
                 .before(CloudscapeSystems::Layers),
         );
@@ -151,6 +151,9 @@ struct PanelState {
     preset: Option<usize>,
     /// Seconds every change of the layers and the haze takes.
     transition_s: f32,
+    /// The low clouds grow with the automaton (`CloudGrowth`); `None` until the command line's
+    /// `--growth` has been read.
+    growth: Option<bool>,
 }
 
 impl Default for PanelState {
@@ -160,6 +163,7 @@ impl Default for PanelState {
             play: PlayWeather::default(),
             preset: None,
             transition_s: DEFAULT_TRANSITION_S,
+            growth: None,
         }
     }
 }
@@ -219,6 +223,11 @@ fn control_window(
             ui.add(egui::Slider::new(&mut transition_s, 0.0..=30.0).text("transition, s (0 cuts)"));
             if transition_s != panel.transition_s {
                 panel.transition_s = transition_s;
+            }
+            let mut growth = panel.growth.unwrap_or(options.growth);
+            ui.checkbox(&mut growth, "low clouds form and dissolve (cloud growth)");
+            if panel.growth != Some(growth) {
+                panel.growth = Some(growth);
             }
             ui.label(time_label(clock.unix_seconds(), forecast));
             match panel.mode {
@@ -558,5 +567,33 @@ fn edit_component<C: Component<Mutability = Mutable> + Reflect + Clone>(
         && let Some(mut component) = world.get_mut::<C>(entity)
     {
         *component = value;
+    }
+}
+
+/// The panel's growth checkbox: the low clouds' layer (its `LayerSlot`, or the `PlaySlot` that
+/// holds it in play mode) gets or loses its `CloudGrowth`.
+fn toggle_growth(
+    panel: Res<PanelState>,
+    mut commands: Commands,
+    layers: Query<(
+        Entity,
+        Option<&LayerSlot>,
+        Option<&PlaySlot>,
+        Has<CloudGrowth>,
+    )>,
+) {
+    let Some(growth) = panel.growth.filter(|_| panel.is_changed()) else {
+        return;
+    };
+    for (entity, slot, play, grows) in &layers {
+        let low = slot == Some(&LayerSlot::Low) || play.is_some_and(|p| p.0 == LayerSlot::Low);
+        if !low || grows == growth {
+            continue;
+        }
+        if growth {
+            commands.entity(entity).insert(low_cloud_growth());
+        } else {
+            commands.entity(entity).remove::<CloudGrowth>();
+        }
     }
 }

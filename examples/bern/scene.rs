@@ -110,16 +110,23 @@ pub(crate) fn spawn_scene(
         // The low slot's layer: cumulus and stratocumulus form and dissolve with its cover.
         let low = LayerSlot::ALL.iter().position(|s| *s == LayerSlot::Low);
         if let Some(&entity) = low.and_then(|i| layers.get(i)) {
-            let maker = bevy_cloudscape::layers::NoiseMaker {
-                increment: [0.08, 0.08],
-                ..default()
-            };
-            commands.entity(entity).insert(CloudGrowth {
-                grid: [96, 96, 16],
-                humidity: maker.clone(),
-                activation: bevy_cloudscape::layers::NoiseMaker { seed: 1, ..maker },
-                ..default()
-            });
+            commands.entity(entity).insert(low_cloud_growth());
         }
+    }
+}
+
+/// The automaton the low clouds grow with (`--growth`, or the panel's checkbox): 96 × 96
+/// columns over the cumulus weather period (about 125 m each) and eight noise features across
+/// it, so the clouds grow to cumulus size.
+pub(crate) fn low_cloud_growth() -> CloudGrowth {
+    let maker = bevy_cloudscape::layers::NoiseMaker {
+        increment: [0.08, 0.08],
+        ..default()
+    };
+    CloudGrowth {
+        grid: [96, 96, 16],
+        humidity: maker.clone(),
+        activation: bevy_cloudscape::layers::NoiseMaker { seed: 1, ..maker },
+        ..default()
     }
 }

@@ -107,7 +107,7 @@ fn a_growing_layer_draws_the_automatons_clouds() {
     use bevy::prelude::*;
     use bevy_cloudscape::{
         layers::{CloudGrowth, CloudKind, CloudLayer, NoiseMaker},
-        render::growth::GrowthRun,
+        render::growth::{ExtractedGrowth, GrowthRun},
         scene::SceneClock,
     };
 
@@ -123,9 +123,18 @@ fn a_growing_layer_draws_the_automatons_clouds() {
         layers: vec![layer(CloudKind::Cumulus, 0.5)],
         settings: settings(64),
     };
-    // The same layer drawn from the weather noise.
+    // The same layer drawn from the weather noise: no layer grows, so no growth pass runs and
+    // the passes bind no cover image.
     rig.set_scene(&scene);
     let (noise_l, _) = rig.render(4);
+    assert!(
+        rig.app
+            .render_world()
+            .resource::<ExtractedGrowth>()
+            .image
+            .is_none(),
+        "a sky without CloudGrowth has no cover image"
+    );
 
     rig.set_scene(&scene);
     let world = rig.app.world();
