@@ -21,7 +21,6 @@ use bevy::{
 };
 
 use crate::{
-    layers::{CloudLayer, LayerDrift},
     reference::{
         noise::NoiseRecipe,
         render::{CloudTextures, density_at, is_in_cloud, transmittance_to_sun},
@@ -30,7 +29,7 @@ use crate::{
     render::{
         VolumetricClouds,
         noise::CloudNoiseSettings,
-        view::{CloudSun, march_inputs},
+        view::{CloudSun, LayerInputData, march_inputs},
     },
     sky::Sun,
     world::CloudWorld,
@@ -94,15 +93,7 @@ fn generate_cpu_cloud_textures(
 pub struct CloudQuery<'w, 's> {
     textures: Option<Res<'w, CpuCloudTextures>>,
     world: Option<Res<'w, CloudWorld>>,
-    layers: Query<
-        'w,
-        's,
-        (
-            &'static CloudLayer,
-            Option<&'static LayerDrift>,
-            Option<&'static crate::render::growth::GrowthRun>,
-        ),
-    >,
+    layers: Query<'w, 's, LayerInputData>,
     cameras: Query<'w, 's, &'static GlobalTransform, With<VolumetricClouds>>,
     lights: Query<
         'w,
@@ -147,9 +138,7 @@ impl CloudQuery<'_, '_> {
             &camera,
             1.0e-3,
             sun.as_ref(),
-            self.layers
-                .iter()
-                .map(|(layer, drift, run)| (layer, drift, run.map(|r| r.growth()))),
+            self.layers.iter(),
             0,
         );
         let relative = (point.as_dvec3() - camera.translation().as_dvec3()).to_array();
@@ -186,7 +175,7 @@ mod tests {
     use std::time::{Duration, Instant};
 
     use super::*;
-    use crate::layers::{CloudKind, DensityProfile, ProfileInterpolation};
+    use crate::layers::{CloudKind, CloudLayer, DensityProfile, ProfileInterpolation};
 
     /// What a system asks at three heights under a homogeneous slab 1–1.5 km up.
     #[derive(Resource, Default, Debug)]

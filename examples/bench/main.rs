@@ -788,10 +788,7 @@ const GROWTH_SIZES: [[u32; 3]; 4] = [[64, 64, 16], [100, 100, 10], [128, 128, 16
 /// cover pass each step is followed by (`GrowthCompute::write_cover`).
 fn time_growth(args: &Args) -> Result<(), String> {
     use bevy::render::{
-        render_resource::{
-            Extent3d, TextureDescriptor, TextureDimension, TextureFormat, TextureUsages,
-            TextureViewDescriptor,
-        },
+        render_resource::TextureViewDescriptor,
         renderer::{RenderDevice, RenderQueue},
     };
     use bevy_cloudscape::{
@@ -830,20 +827,7 @@ fn time_growth(args: &Args) -> Result<(), String> {
         per_step.sort_by(f64::total_cmp);
         let ms = per_step[2];
         // The cover the weather reads after a step (column counts and their 5 x 5 mean).
-        let texture = device.create_texture(&TextureDescriptor {
-            label: Some("growth bench cover"),
-            size: Extent3d {
-                width: size[0],
-                height: size[1],
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: TextureDimension::D2,
-            format: TextureFormat::R32Float,
-            usage: TextureUsages::STORAGE_BINDING,
-            view_formats: &[],
-        });
+        let texture = gpu.cover_texture(&device);
         let view = texture.create_view(&TextureViewDescriptor::default());
         let mut per_cover: Vec<f64> = (0..5)
             .map(|_| {

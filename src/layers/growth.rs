@@ -482,7 +482,7 @@ mod tests {
         for coverage in [0.0, 0.2, 0.5, 0.9, 1.0] {
             let covered = covered_fraction(&growth.initial_grid(coverage));
             assert!(
-                covered <= coverage && covered > coverage - 0.05,
+                covered <= coverage && covered > coverage - 0.05, // the 5 points
                 "{covered} for {coverage}"
             );
         }

@@ -207,21 +207,11 @@ impl GrowthGrid {
     /// The fraction of each column's cells that are cloud, x fastest.
     #[must_use]
     pub fn column_cover(&self) -> Vec<f32> {
-        let [nx, ny, nz] = self.size;
-        let mut cover = vec![0.0; (nx * ny) as usize];
-        for z in 0..nz {
-            for y in 0..ny {
-                for x in 0..nx {
-                    if self.cells[self.index(x, y, z)] & CLD != 0 {
-                        cover[(x + nx * y) as usize] += 1.0;
-                    }
-                }
-            }
-        }
-        for c in &mut cover {
-            *c /= nz as f32;
-        }
-        cover
+        let cells = self.size[2] as f32;
+        self.column_counts()
+            .into_iter()
+            .map(|count| count as f32 / cells)
+            .collect()
     }
 }
 

@@ -20,14 +20,13 @@ use bevy::{
 };
 
 use crate::{
-    layers::{CloudLayer, LayerDrift},
     reference::render::{
         MarchLayer, MarchSettings, deck_irradiance, eddington_phase, layer_is_active,
         profile_density,
     },
     render::{
         VolumetricClouds,
-        view::{CloudSun, GROUND_ALBEDO, march_inputs},
+        view::{CloudSun, GROUND_ALBEDO, LayerInputData, march_inputs},
     },
     sky::Sun,
     world::CloudWorld,
@@ -195,11 +194,7 @@ type LitCamera<'a> = (
 /// Scales each camera's sky light by the clouds above it ([`CloudSkyLight`]).
 pub(crate) fn light_the_scene_under_the_clouds(
     world: Option<Res<CloudWorld>>,
-    layers: Query<(
-        &CloudLayer,
-        Option<&LayerDrift>,
-        Option<&crate::render::growth::GrowthRun>,
-    )>,
+    layers: Query<LayerInputData>,
     lights: Query<(&DirectionalLight, &GlobalTransform, Has<Sun>)>,
     mut cameras: Query<LitCamera>,
 ) {
@@ -214,9 +209,7 @@ pub(crate) fn light_the_scene_under_the_clouds(
                 camera,
                 1.0e-3,
                 sun.as_ref(),
-                layers
-                    .iter()
-                    .map(|(layer, drift, run)| (layer, drift, run.map(|r| r.growth()))),
+                layers.iter(),
                 0,
             );
             sky_light_factor(&settings, &march_layers, GROUND_ALBEDO) as f32
@@ -233,7 +226,7 @@ pub(crate) fn light_the_scene_under_the_clouds(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::layers::{CloudKind, DensityProfile, ProfileInterpolation};
+    use crate::layers::{CloudKind, CloudLayer, DensityProfile, ProfileInterpolation};
 
     /// A full deck from 1 to 2 km of vertical optical depth `tau` (flat profile, no noise).
     fn deck(tau: f32) -> CloudLayer {

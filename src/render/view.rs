@@ -13,6 +13,7 @@ use bevy::{
 
 use super::{
     VolumetricClouds,
+    growth::GrowthRun,
     haze::{GpuHazeUniforms, Haze, haze_settings},
 };
 use crate::{
@@ -75,7 +76,8 @@ pub(crate) const GROUND_ALBEDO: f64 = 0.2;
 
 #[doc(hidden)]
 /// One layer as [`march_inputs`] takes it: the layer, its wind drift and the clouds of its
-/// growth automaton. Made from `(layer, drift)` or `(layer, drift, growth)`.
+/// growth automaton. Made from `(layer, drift)` or, as the systems query them,
+/// `(layer, drift, run)`.
 #[derive(Clone, Copy, Debug)]
 pub struct LayerInput<'a> {
     /// The layer.
@@ -100,23 +102,30 @@ impl<'a>
     From<(
         &'a CloudLayer,
         Option<&'a LayerDrift>,
-        Option<&'a LayerGrowth>,
+        Option<&'a GrowthRun>,
     )> for LayerInput<'a>
 {
     fn from(
-        (layer, drift, growth): (
+        (layer, drift, run): (
             &'a CloudLayer,
             Option<&'a LayerDrift>,
-            Option<&'a LayerGrowth>,
+            Option<&'a GrowthRun>,
         ),
     ) -> Self {
         Self {
             layer,
             drift,
-            growth,
+            growth: run.map(GrowthRun::growth),
         }
     }
 }
+
+/// What the systems that build march inputs read of each layer ([`LayerInput`]).
+pub(crate) type LayerInputData = (
+    &'static CloudLayer,
+    Option<&'static LayerDrift>,
+    Option<&'static GrowthRun>,
+);
 
 #[doc(hidden)]
 /// The march inputs for one camera: f64 settings and the visible layers, from the same numbers
@@ -596,13 +605,7 @@ pub(crate) fn extract_cloud_views(
             &Projection,
         )>,
     >,
-    layers: Extract<
-        Query<(
-            &CloudLayer,
-            Option<&LayerDrift>,
-            Option<&crate::render::growth::GrowthRun>,
-        )>,
-    >,
+    layers: Extract<Query<LayerInputData>>,
     lights: Extract<Query<(&DirectionalLight, &GlobalTransform, Has<Sun>)>>,
     atmospheres: Extract<Query<(), With<Atmosphere>>>,
     frame: Extract<Res<FrameCount>>,
@@ -632,9 +635,7 @@ pub(crate) fn extract_cloud_views(
             transform,
             pixel_angle,
             sun.as_ref(),
-            layers
-                .iter()
-                .map(|(layer, drift, run)| (layer, drift, run.map(|r| r.growth()))),
+            layers.iter(),
             frame.0,
         );
         let haze = haze_settings(haze, settings, &march, &march_layers);

@@ -14,7 +14,7 @@ use bevy_cloudscape::{
 };
 
 use crate::common::scenes::*;
-use crate::harness::{Headless, output_dir};
+use crate::harness::{Headless, TWIN_RELATIVE_RMSE, TWIN_T_RMSE, output_dir, twin_difference};
 
 #[test]
 fn showcase_scenes_match_the_cpu_reference() {
@@ -26,22 +26,18 @@ fn showcase_scenes_match_the_cpu_reference() {
         let (cpu_l, cpu_t) = rig.reference(&textures);
         let strip = output_dir().join(format!("clouds_{}.png", scene.name));
         save_strip(&strip, size, &[&gpu_l, &cpu_l]);
-        let error = relative_rmse(&gpu_l, &cpu_l);
-        let t_rmse = (gpu_t
-            .iter()
-            .zip(&cpu_t)
-            .map(|(a, b)| f64::from(a - b).powi(2))
-            .sum::<f64>()
-            / cpu_t.len() as f64)
-            .sqrt();
-        let mean_t = cpu_t.iter().map(|t| f64::from(*t)).sum::<f64>() / cpu_t.len() as f64;
+        let (error, t_rmse, mean_t) = twin_difference((&gpu_l, &gpu_t), (&cpu_l, &cpu_t));
         eprintln!(
             "{}: relative RMSE of luminance {:.4}, RMSE of T {t_rmse:.4}, mean T {mean_t:.3}",
             scene.name, error
         );
-        assert!(error <= 0.03, "{}: relative RMSE {error} > 3 %", scene.name);
         assert!(
-            t_rmse <= 0.02,
+            error <= TWIN_RELATIVE_RMSE,
+            "{}: relative RMSE {error}",
+            scene.name
+        );
+        assert!(
+            t_rmse <= TWIN_T_RMSE,
             "{}: transmittance RMSE {t_rmse}",
             scene.name
         );

@@ -3,10 +3,7 @@
 use bevy::{
     math::UVec2,
     render::{
-        render_resource::{
-            Extent3d, TextureDescriptor, TextureDimension, TextureFormat, TextureUsages,
-            TextureViewDescriptor,
-        },
+        render_resource::{TextureFormat, TextureViewDescriptor},
         renderer::{RenderDevice, RenderQueue},
     },
 };
@@ -59,20 +56,7 @@ fn the_gpu_automaton_matches_its_cpu_twin_bit_for_bit_over_100_steps() {
         );
     }
     // The cover the weather reads: the GPU's smoothed column counts are the twin's, bit for bit.
-    let texture = device.create_texture(&TextureDescriptor {
-        label: Some("growth cover test"),
-        size: Extent3d {
-            width: size[0],
-            height: size[1],
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: TextureDimension::D2,
-        format: TextureFormat::R32Float,
-        usage: TextureUsages::STORAGE_BINDING | TextureUsages::COPY_SRC,
-        view_formats: &[],
-    });
+    let texture = gpu.cover_texture(&device);
     gpu.write_cover(
         &device,
         &queue,
@@ -106,13 +90,13 @@ fn the_gpu_automaton_matches_its_cpu_twin_bit_for_bit_over_100_steps() {
 fn a_growing_layer_draws_the_automatons_clouds() {
     use bevy::prelude::*;
     use bevy_cloudscape::{
-        layers::{CloudGrowth, CloudKind, CloudLayer, NoiseMaker},
+        layers::{COVERED_FROM, CloudGrowth, CloudKind, CloudLayer, NoiseMaker},
         render::growth::{ExtractedGrowth, GrowthRun},
         scene::SceneClock,
     };
 
     use crate::common::scenes::*;
-    use crate::harness::output_dir;
+    use crate::harness::{TWIN_RELATIVE_RMSE, TWIN_T_RMSE, output_dir, twin_difference};
 
     let size = UVec2::new(96, 54);
     let (textures, mut rig) = small_rig(size);
@@ -161,8 +145,8 @@ fn a_growing_layer_draws_the_automatons_clouds() {
         .clone();
     assert_eq!(start.steps_done(), 0, "the clock stands still");
     assert!(
-        (start.covered() - 0.5).abs() < 0.1,
-        "the run starts at the coverage: {}",
+        start.covered() <= 0.5 && start.covered() > 0.45,
+        "the run starts at the coverage, within the issue's 5 points: {}",
         start.covered()
     );
     // Half an hour of scene time: 60 steps due at 120 an hour, run one per read-back.
@@ -193,23 +177,25 @@ fn a_growing_layer_draws_the_automatons_clouds() {
         "the automaton comes to rest once the clock stands"
     );
     let run = rig.app.world().get::<GrowthRun>(layer).unwrap().clone();
-    let changed = run
-        .growth()
-        .cover
-        .iter()
-        .zip(start.growth().cover.iter())
-        .filter(|(a, b)| (**a > 0.0) != (**b > 0.0))
-        .count() as f32
-        / run.growth().cover.len() as f32;
+    // Columns covered now and not at the start (clouds that formed), and the other way round
+    // (clouds that dissolved).
+    let pairs = || run.growth().cover.iter().zip(start.growth().cover.iter());
+    let formed = pairs()
+        .filter(|&(now, then)| *now >= COVERED_FROM && *then < COVERED_FROM)
+        .count();
+    let dissolved = pairs()
+        .filter(|&(now, then)| *now < COVERED_FROM && *then >= COVERED_FROM)
+        .count();
     eprintln!(
-        "after {} steps: covered {:.3}, columns that cleared or clouded {changed:.3}",
+        "after {} steps: covered {:.3}; of {} columns {formed} clouded and {dissolved} cleared",
         run.steps_done(),
-        run.covered()
+        run.covered(),
+        run.growth().cover.len()
     );
     assert_eq!(run.steps_done(), 60, "half an hour's steps ran");
-    assert!(changed > 0.05, "clouds formed and dissolved: {changed}");
+    assert!(formed > 0 && dissolved > 0, "clouds formed and dissolved");
     assert!(
-        (0.05..0.95).contains(&run.covered()),
+        run.covered() > 0.0 && run.covered() < 1.0,
         "clouds and gaps: {}",
         run.covered()
     );
@@ -232,27 +218,19 @@ fn a_growing_layer_draws_the_automatons_clouds() {
         size,
         &[&gpu_l, &cpu_l, &noise_l],
     );
-    let error = relative_rmse(&gpu_l, &cpu_l);
-    let mean_t = cpu_t.iter().map(|t| f64::from(*t)).sum::<f64>() / cpu_t.len() as f64;
-    let t_rmse = (gpu_t
-        .iter()
-        .zip(&cpu_t)
-        .map(|(a, b)| f64::from(a - b).powi(2))
-        .sum::<f64>()
-        / cpu_t.len() as f64)
-        .sqrt();
+    let (error, t_rmse, mean_t) = twin_difference((&gpu_l, &gpu_t), (&cpu_l, &cpu_t));
     let from_noise = relative_rmse(&noise_l, &gpu_l);
     eprintln!(
         "GPU against its twin: relative RMSE {error:.4}, T RMSE {t_rmse:.4}, mean T {mean_t:.3}; \
          against the weather noise's clouds {from_noise:.3}"
     );
-    // The bounds of the showcase scenes' GPU-against-twin test.
-    assert!(error <= 0.03, "relative RMSE {error} > 3 %");
-    assert!(t_rmse <= 0.02, "transmittance RMSE {t_rmse}");
+    assert!(error <= TWIN_RELATIVE_RMSE, "relative RMSE {error}");
+    assert!(t_rmse <= TWIN_T_RMSE, "transmittance RMSE {t_rmse}");
+    // The showcase scenes' check that a frame shows cloud.
     assert!(mean_t < 0.95, "the frame shows cloud (mean T {mean_t})");
-    // Another pattern: far more than the 3 % a twin may differ.
+    // The noise's clouds are another pattern: further from the frame than a twin may be.
     assert!(
-        from_noise > 0.3,
+        from_noise > TWIN_RELATIVE_RMSE,
         "the automaton placed the clouds: {from_noise}"
     );
 }

@@ -3,6 +3,32 @@
 
 pub use crate::common::headless::{Headless, f16_to_f32};
 
+/// How far a GPU frame may be from its CPU twin: relative RMSE of luminance, and RMSE of the
+/// transmittance (f32 against f64, and the GPU's texture filtering).
+pub const TWIN_RELATIVE_RMSE: f64 = 0.03;
+pub const TWIN_T_RMSE: f64 = 0.02;
+
+/// A GPU frame (luminance, transmittance per pixel) against its CPU twin's: the relative RMSE
+/// of luminance, the RMSE of the transmittance and the twin's mean transmittance.
+pub fn twin_difference(
+    (gpu_l, gpu_t): (&[[f32; 3]], &[f32]),
+    (cpu_l, cpu_t): (&[[f32; 3]], &[f32]),
+) -> (f64, f64, f64) {
+    let t_rmse = (gpu_t
+        .iter()
+        .zip(cpu_t)
+        .map(|(a, b)| f64::from(a - b).powi(2))
+        .sum::<f64>()
+        / cpu_t.len() as f64)
+        .sqrt();
+    let mean_t = cpu_t.iter().map(|t| f64::from(*t)).sum::<f64>() / cpu_t.len() as f64;
+    (
+        crate::common::scenes::relative_rmse(gpu_l, cpu_l),
+        t_rmse,
+        mean_t,
+    )
+}
+
 /// Where tests write images for people to look at: `target/test-images/`.
 pub fn output_dir() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target/test-images")

@@ -12,9 +12,10 @@ use bevy::render::{
     render_resource::{
         BindGroup, BindGroupEntries, BindGroupLayout, BindGroupLayoutEntries, Buffer,
         BufferDescriptor, BufferInitDescriptor, BufferUsages, CommandEncoderDescriptor,
-        ComputePassDescriptor, ComputePipeline, PipelineCompilationOptions,
-        PipelineLayoutDescriptor, RawComputePipelineDescriptor, ShaderModuleDescriptor,
-        ShaderSource, ShaderStages, ShaderType, StorageTextureAccess, TextureFormat, TextureView,
+        ComputePassDescriptor, ComputePipeline, Extent3d, PipelineCompilationOptions,
+        PipelineLayoutDescriptor, RawComputePipelineDescriptor, ShaderModule,
+        ShaderModuleDescriptor, ShaderSource, ShaderStages, ShaderType, StorageTextureAccess,
+        Texture, TextureDescriptor, TextureDimension, TextureFormat, TextureUsages, TextureView,
         UniformBuffer,
         binding_types::{
             storage_buffer_read_only_sized, storage_buffer_sized, texture_storage_2d,
@@ -29,7 +30,7 @@ use crate::reference::growth::{ACT, CLD, GrowthGrid, HUM, step_key};
 mod run;
 
 #[doc(hidden)]
-pub use run::{ExtractedGrowth, GrowthCoverImage, GrowthJob, GrowthRun};
+pub use run::{ExtractedGrowth, GrowthRun};
 pub(crate) use run::{
     GrowthComputes, extract_cloud_growth, growth_cover_view, run_cloud_growth, run_growth_jobs,
 };
@@ -42,6 +43,28 @@ pub(crate) struct GpuGrowthUniforms {
     extinction: u32,
     keys: bevy::math::UVec3,
     per_column: u32,
+}
+
+/// The compute pipeline of `entry` in `growth.wgsl` with the one bind group `layout`.
+fn compute_pipeline(
+    device: &RenderDevice,
+    module: &ShaderModule,
+    layout: &BindGroupLayout,
+    entry: &'static str,
+) -> ComputePipeline {
+    let pipeline_layout = device.create_pipeline_layout(&PipelineLayoutDescriptor {
+        label: Some(entry),
+        bind_group_layouts: &[Some(layout)],
+        immediate_size: 0,
+    });
+    device.create_compute_pipeline(&RawComputePipelineDescriptor {
+        label: Some(entry),
+        layout: Some(&pipeline_layout),
+        module,
+        entry_point: Some(entry),
+        compilation_options: PipelineCompilationOptions::default(),
+        cache: None,
+    })
 }
 
 /// Threads per workgroup along x and y (`@workgroup_size(8, 8, 1)`).
@@ -120,19 +143,7 @@ impl GrowthCompute {
             label: Some("growth.wgsl"),
             source: ShaderSource::Wgsl(include_str!("growth.wgsl").into()),
         });
-        let pipeline_layout = device.create_pipeline_layout(&PipelineLayoutDescriptor {
-            label: Some("cloud growth pipeline layout"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&RawComputePipelineDescriptor {
-            label: Some("cloud growth"),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some("grow"),
-            compilation_options: PipelineCompilationOptions::default(),
-            cache: None,
-        });
+        let pipeline = compute_pipeline(device, &module, &layout, "grow");
         let counts_layout = device.create_bind_group_layout(
             "cloud growth counts layout",
             &BindGroupLayoutEntries::with_indices(
@@ -161,38 +172,14 @@ impl GrowthCompute {
                 ),
             ),
         );
-        let counts_pipeline_layout = device.create_pipeline_layout(&PipelineLayoutDescriptor {
-            label: Some("cloud growth counts pipeline layout"),
-            bind_group_layouts: &[Some(&counts_layout)],
-            immediate_size: 0,
-        });
-        let counts_pipeline = device.create_compute_pipeline(&RawComputePipelineDescriptor {
-            label: Some("cloud growth counts"),
-            layout: Some(&counts_pipeline_layout),
-            module: &module,
-            entry_point: Some("column_counts"),
-            compilation_options: PipelineCompilationOptions::default(),
-            cache: None,
-        });
+        let counts_pipeline = compute_pipeline(device, &module, &counts_layout, "column_counts");
         let counts = device.create_buffer(&BufferDescriptor {
             label: Some("cloud growth column counts"),
             size: u64::from(size[0] * size[1]) * 4,
             usage: BufferUsages::STORAGE,
             mapped_at_creation: false,
         });
-        let cover_pipeline_layout = device.create_pipeline_layout(&PipelineLayoutDescriptor {
-            label: Some("cloud growth cover pipeline layout"),
-            bind_group_layouts: &[Some(&cover_layout)],
-            immediate_size: 0,
-        });
-        let cover_pipeline = device.create_compute_pipeline(&RawComputePipelineDescriptor {
-            label: Some("cloud growth cover"),
-            layout: Some(&cover_pipeline_layout),
-            module: &module,
-            entry_point: Some("column_cover"),
-            compilation_options: PipelineCompilationOptions::default(),
-            cache: None,
-        });
+        let cover_pipeline = compute_pipeline(device, &module, &cover_layout, "column_cover");
         Self {
             size,
             pipeline,
@@ -334,6 +321,26 @@ impl GrowthCompute {
             pass.dispatch_workgroups(groups[0], groups[1], 1);
         }
         queue.submit([encoder.finish()]);
+    }
+
+    /// A texture [`GrowthCompute::write_cover`] can write on its own: `R32Float`, one texel per
+    /// column, that can be copied back (the bench and the tests read it).
+    #[must_use]
+    pub fn cover_texture(&self, device: &RenderDevice) -> Texture {
+        device.create_texture(&TextureDescriptor {
+            label: Some("cloud growth cover"),
+            size: Extent3d {
+                width: self.size[0],
+                height: self.size[1],
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: TextureDimension::D2,
+            format: TextureFormat::R32Float,
+            usage: TextureUsages::STORAGE_BINDING | TextureUsages::COPY_SRC,
+            view_formats: &[],
+        })
     }
 
     /// The buffer that holds the current bits (`u32` per cell, [`GrowthGrid::cells`] order).

@@ -45,30 +45,27 @@ use crate::{
 };
 
 /// Most automaton steps one frame runs. The steering sets each step's probabilities from the
-/// cover after the step before (Bevy's read-back, a frame or two later), so a run steps once
-/// and waits for that cover before its next step; steps due meanwhile wait for the next frames.
-/// At 60 frames a second that is 20 to 30 steps a second: at the default 120 steps an hour the
-/// automaton keeps up with a clock up to 600 to 900 times real time, and lags a faster one.
+/// cover after the step before (Bevy's read-back), so a run steps once and waits for that cover
+/// before its next step; steps due meanwhile wait for the next frames. A run therefore takes at
+/// most one step per read-back: with a read-back that returns within `k` frames, `fps / k`
+/// steps a second, and a clock faster than that many steps per
+/// [`CloudGrowth::steps_per_hour`] leaves the automaton behind.
 pub const MAX_STEPS_PER_FRAME: u32 = 1;
 
 /// Most steps a run keeps due (two hours at the default rate): they run one per read-back in
 /// the frames after a jump of the scene time; a longer jump drops the rest.
 pub const MAX_STEPS_DUE: f64 = 240.0;
 
-/// Bytes per row of a texture copied into a buffer (wgpu's `COPY_BYTES_PER_ROW_ALIGNMENT`).
-const ROW_ALIGNMENT: usize = 256;
-
-#[doc(hidden)]
 /// The image that holds every growing layer's column cover: `R32Float`, `side²` texels per
 /// slice, one slice per layer (main world; its id is extracted for the passes).
 #[derive(Resource, Clone, Debug)]
-pub struct GrowthCoverImage {
+pub(crate) struct GrowthCoverImage {
     /// The array image.
-    pub handle: Handle<Image>,
+    handle: Handle<Image>,
     /// Texels per side of every slice: the largest grid's.
-    pub side: u32,
+    side: u32,
     /// Slices: one per growing layer.
-    pub slices: u32,
+    slices: u32,
 }
 
 impl GrowthCoverImage {
@@ -95,25 +92,19 @@ impl GrowthCoverImage {
             slices,
         }
     }
-
-    /// Bytes of one row of a slice in a read-back buffer.
-    fn row_bytes(&self) -> usize {
-        (self.side as usize * 4).div_ceil(ROW_ALIGNMENT) * ROW_ALIGNMENT
-    }
 }
 
-#[doc(hidden)]
 /// The steps one frame runs on a layer's automaton.
 #[derive(Clone, Debug, PartialEq)]
-pub struct GrowthJob {
+pub(crate) struct GrowthJob {
     /// Index of the first step (the random numbers' step key).
-    pub first_step: u32,
+    first_step: u32,
     /// Steps to run.
-    pub steps: u32,
+    steps: u32,
     /// Per column, the humidity and activation thresholds of these steps.
-    pub columns: Arc<[[u32; 2]]>,
+    columns: Arc<[[u32; 2]]>,
     /// The evaporation threshold of these steps.
-    pub extinction: u32,
+    extinction: u32,
 }
 
 #[doc(hidden)]
@@ -135,8 +126,6 @@ pub struct GrowthRun {
     /// The scene time of the last frame, seconds.
     last_s: f64,
     steering: GrowthSteering,
-    /// The covered fraction last read back.
-    covered: f32,
     /// The layer's clouds for the CPU twin, and its slice of the cover image.
     growth: LayerGrowth,
     /// This frame's steps.
@@ -154,10 +143,11 @@ impl GrowthRun {
         &self.growth
     }
 
-    /// The covered fraction last read back, 0–1.
+    /// The covered fraction of the cover last read back, 0–1
+    /// ([`covered_share`](crate::layers::covered_share)).
     #[must_use]
     pub fn covered(&self) -> f32 {
-        self.covered
+        crate::layers::covered_share(&self.growth.cover)
     }
 
     /// Whether a step ran whose cover has not been read back yet (no step runs until it is).
@@ -268,7 +258,6 @@ pub(crate) fn run_cloud_growth(
                     steps_due: 0.0,
                     last_s: now_s,
                     steering: GrowthSteering::default(),
-                    covered: crate::layers::covered_fraction(&initial),
                     growth: LayerGrowth {
                         size: [config.grid[0], config.grid[1]],
                         slice,
@@ -302,7 +291,7 @@ pub(crate) fn run_cloud_growth(
             let c = &run.config;
             let p = if c.follow_coverage {
                 run.steering
-                    .probabilities(layer.coverage, run.covered, &run.config)
+                    .probabilities(layer.coverage, run.covered(), &run.config)
             } else {
                 crate::layers::GrowthProbabilities {
                     humidity: c.humidity_probability,
@@ -354,11 +343,8 @@ fn read_growth_cover(
         return;
     };
     let side = readback.side as usize;
-    let row = GrowthCoverImage::row_bytes(&GrowthCoverImage {
-        handle: Handle::default(),
-        side: readback.side,
-        slices: readback.slices,
-    });
+    // Bevy's read-back pads each row to wgpu's copy alignment.
+    let row = RenderDevice::align_copy_bytes_per_row(side * 4);
     if event.data.len() < row * side * readback.slices as usize {
         return;
     }
@@ -377,7 +363,6 @@ fn read_growth_cover(
                     .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])),
             );
         }
-        run.covered = crate::layers::covered_share(&cover);
         run.growth.cover = cover.into();
         run.awaiting_cover = false;
     }

@@ -86,11 +86,11 @@ use super::{
     VolumetricClouds,
     haze::CloudShadowFrame,
     noise::CloudNoiseTextures,
-    view::{CloudSun, GpuCloudLayer, GpuCloudUniforms, LayerInput, march_inputs},
+    view::{CloudSun, GpuCloudLayer, GpuCloudUniforms, LayerInput, LayerInputData, march_inputs},
 };
 use crate::{
     CloudscapeSystems,
-    layers::{CloudLayer, LayerDrift},
+    layers::CloudLayer,
     reference::{
         render::{MarchLayer, MarchSettings},
         shadow::{MAX_SHADOW_STEPS, ShadowMapFrame},
@@ -523,13 +523,7 @@ fn extract_cloud_shadow(
     settings: Extract<Option<Res<CloudShadows>>>,
     map: Extract<Option<Res<CloudShadowMap>>>,
     cameras: Extract<Query<(&Camera, &VolumetricClouds, &GlobalTransform)>>,
-    layers: Extract<
-        Query<(
-            &CloudLayer,
-            Option<&LayerDrift>,
-            Option<&crate::render::growth::GrowthRun>,
-        )>,
-    >,
+    layers: Extract<Query<LayerInputData>>,
     lights: Extract<
         Query<(
             &DirectionalLight,
@@ -571,9 +565,7 @@ fn extract_cloud_shadow(
         camera,
         light_transform,
         sun.as_ref(),
-        layers
-            .iter()
-            .map(|(layer, drift, run)| (layer, drift, run.map(|r| r.growth()))),
+        layers.iter(),
     ) {
         Some((march, layers, frame)) if settings.enabled && frame.size == map.resolution => {
             commands.insert_resource(CloudShadowFrame {
