@@ -206,18 +206,55 @@ fn temporal_resolve(in: FullscreenVertexOutput) -> TemporalOutput {
         contents[k] = tap.y;
     }
     let weights = upsample_weights(f, taps, distance);
-    var current = vec4<f32>(0.0);
     var strongest = 0;
-    for (var k = 0; k < 4; k++) {
-        current += weights[k] * textureLoad(march_colour, footprint_texel(f, k, size), 0);
+    for (var k = 1; k < 4; k++) {
         if weights[k] > weights[strongest] {
             strongest = k;
         }
     }
     let content = contents[strongest];
 
-    // The new frame's range around this pixel, at the march's resolution.
+    // How closely this frame's ray went through this pixel: 1 for the pixel it went through,
+    // 0 for its neighbours (Rust: `hit_proximity`); 1 at full resolution.
     let centre = clamp(vec2<i32>(march_uv * vec2<f32>(size)), vec2<i32>(0), size - 1);
+    var proximity = 1.0;
+    if temporal.upsampling_factor > 1u {
+        let sample_uv = (vec2<f32>(centre) + 0.5 + temporal.sample_offset) / vec2<f32>(size) * temporal.uv_scale;
+        let near = max(vec2<f32>(0.0), 1.0 - abs((in.uv - sample_uv) * view.viewport.zw));
+        proximity = near.x * near.y;
+    }
+
+    // Rust: `temporal_upsample_resolve`; the history only where it saw what this pixel sees
+    // (Rust: `history_matches`). A pixel this frame's rays did not go through (proximity 0:
+    // with the upsampling, 15 in 16) keeps its history as it is, so it reads neither the new
+    // frame's colour nor its neighbourhood: the same result for less than half the reads.
+    let end = vec4<f32>(distance, 0.0, 0.0, 0.0);
+    let previous = reproject(direction, content);
+    var surface = 0u;
+    if temporal.valid != 0u && previous.z != 0.0 {
+        surface = history_surface(previous.xy, distance);
+    }
+    var old = vec4<f32>(0.0);
+    if surface != 0u {
+        if surface == 2u {
+            old = sample_history(previous.xy);
+        } else {
+            old = textureSampleLevel(history, history_sampler, previous.xy, 0.0);
+        }
+        if !(proximity > 0.0) {
+            return TemporalOutput(old, end);
+        }
+    }
+
+    var current = vec4<f32>(0.0);
+    for (var k = 0; k < 4; k++) {
+        current += weights[k] * textureLoad(march_colour, footprint_texel(f, k, size), 0);
+    }
+    if surface == 0u {
+        return TemporalOutput(current, end);
+    }
+
+    // The new frame's range around this pixel, at the march's resolution.
     var lo = current;
     var hi = current;
     for (var dy = -1; dy <= 1; dy++) {
@@ -227,31 +264,6 @@ fn temporal_resolve(in: FullscreenVertexOutput) -> TemporalOutput {
             lo = min(lo, colour);
             hi = max(hi, colour);
         }
-    }
-
-    // How closely this frame's ray went through this pixel: 1 for the pixel it went through,
-    // 0 for its neighbours (Rust: `hit_proximity`); 1 at full resolution.
-    var proximity = 1.0;
-    if temporal.upsampling_factor > 1u {
-        let sample_uv = (vec2<f32>(centre) + 0.5 + temporal.sample_offset) / vec2<f32>(size) * temporal.uv_scale;
-        let near = max(vec2<f32>(0.0), 1.0 - abs((in.uv - sample_uv) * view.viewport.zw));
-        proximity = near.x * near.y;
-    }
-
-    // Rust: `temporal_upsample_resolve`; the history only where it saw what this pixel sees
-    // (Rust: `history_matches`).
-    let end = vec4<f32>(distance, 0.0, 0.0, 0.0);
-    let previous = reproject(direction, content);
-    if temporal.valid == 0u || previous.z == 0.0 {
-        return TemporalOutput(current, end);
-    }
-    let surface = history_surface(previous.xy, distance);
-    if surface == 0u {
-        return TemporalOutput(current, end);
-    }
-    var old = textureSampleLevel(history, history_sampler, previous.xy, 0.0);
-    if surface == 2u {
-        old = sample_history(previous.xy);
     }
     let kept = mix(old, clamp(old, lo, hi), proximity);
     let motion = length((previous.xy - in.uv) * view.viewport.zw);
