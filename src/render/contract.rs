@@ -152,6 +152,10 @@ fn rust_constants() -> Vec<(&'static str, Vec<f64>)> {
             "SHADOW_MAP_NEAR_STEPS",
             scalar(SHADOW_MAP_NEAR_STEPS.into()),
         ),
+        (
+            "HIGHER_LAYER_STEP_DIVISOR",
+            scalar(HIGHER_LAYER_STEP_DIVISOR.into()),
+        ),
         ("MAX_OCTAVES", scalar(noise_ref::MAX_OCTAVES.into())),
         ("MAX_FREQUENCY", scalar(noise_ref::MAX_FREQUENCY.into())),
         ("WEATHER_SLICE_Z", scalar(noise_ref::WEATHER_SLICE_Z)),

@@ -20,7 +20,18 @@ use crate::harness::{Headless, TWIN_RELATIVE_RMSE, TWIN_T_RMSE, output_dir, twin
 fn showcase_scenes_match_the_cpu_reference() {
     let size = UVec2::new(96, 54);
     let (textures, mut rig) = small_rig(size);
-    for scene in showcase_scenes() {
+    // And cumulus under an altostratus deck: the light march's pass through a layer above the
+    // sample's own (`higher_layers_optical_depth`).
+    let under_a_deck = Scene {
+        name: "cumulus_under_altostratus",
+        sun_deg: (30.0, 150.0),
+        layers: vec![
+            layer(CloudKind::Cumulus, 0.5),
+            layer(CloudKind::Altostratus, 0.8),
+        ],
+        ..showcase_scenes().remove(0)
+    };
+    for scene in showcase_scenes().into_iter().chain([under_a_deck]) {
         rig.set_scene(&scene);
         let (gpu_l, gpu_t) = rig.render(4);
         let (cpu_l, cpu_t) = rig.reference(&textures);

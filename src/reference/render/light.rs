@@ -15,7 +15,8 @@
 
 use super::{
     CloudTextures, MarchLayer, MarchSettings, add, altitude_along_ray, dot, ground_distance,
-    horizontal_axes, intersect_altitude_sphere, layer_is_active, saturate, scale, total_extinction,
+    horizontal_axes, intersect_altitude_sphere, layer_density, layer_is_active, saturate, scale,
+    total_extinction,
 };
 
 /// Most light-march steps; larger [`MarchSettings::light_steps`] are clamped.
@@ -295,8 +296,11 @@ pub const SHADOW_MAP_NEAR_STEPS: u32 = 2;
 /// it; the march uses [`LIGHT_SAMPLE_OFFSET`], the midpoints, whatever the view ray's jitter. A
 /// homogeneous layer is integrated exactly whatever the offset. Altitudes along the light ray come from [`altitude_along_ray`] relative to
 /// the point. The footprint of a light sample is at least its step length, so long steps read
-/// coarse mips. Only the shells that hold the point are marched; shadows cast by a separate
-/// higher layer are left to the cloud shadow map. WGSL twin: `sun_optical_depth`.
+/// coarse mips. The shells that hold the point are marched so; a full march (`max_distance_m`
+/// infinite) of a point inside a layer then adds the layers wholly above it
+/// ([`higher_layers_optical_depth`]), so low clouds under a deck lie in its shade. A march cut
+/// short leaves them to what reads the rest of the way (the cloud shadow map). WGSL twin:
+/// `sun_optical_depth`.
 pub fn sun_optical_depth(
     textures: &CloudTextures,
     settings: &MarchSettings,
@@ -347,6 +351,81 @@ pub fn sun_optical_depth(
             true,
         );
         optical_depth += extinction * ds;
+    }
+    if max_distance_m == f64::INFINITY {
+        optical_depth += higher_layers_optical_depth(
+            textures,
+            settings,
+            layers,
+            up,
+            position_m,
+            altitude_m,
+            mu_sun,
+            footprint_m,
+            steps,
+        );
+    }
+    optical_depth
+}
+
+/// Light-march steps through each layer above a sample's own: one per this many of the
+/// sample's own light-march steps, rounded up. A layer seen from below casts a shade whose
+/// detail the sample's own light march does not need. WGSL twin: `HIGHER_LAYER_STEP_DIVISOR`.
+pub const HIGHER_LAYER_STEP_DIVISOR: u32 = 4;
+
+/// Optical depth toward the sun, beyond the sample's own layers, through every active layer
+/// whose base lies above `altitude_m`: each crossed from its base to its top in
+/// `own_steps /` [`HIGHER_LAYER_STEP_DIVISOR`] (rounded up) equal steps sampled at their
+/// midpoints, with the layer's full density ([`layer_density`]) at a footprint of at least the
+/// step. 0 without such layers. Without it a low cloud under an overcast deck would take the
+/// full sun. The point is at `position_m` relative to a camera with local vertical `up`, and the
+/// sun at `mu_sun` there (`point_mu_sun`). WGSL twin: `higher_layers_optical_depth`.
+#[allow(clippy::too_many_arguments)]
+pub fn higher_layers_optical_depth(
+    textures: &CloudTextures,
+    settings: &MarchSettings,
+    layers: &[MarchLayer],
+    up: [f64; 3],
+    position_m: [f64; 3],
+    altitude_m: f64,
+    mu_sun: f64,
+    footprint_m: f64,
+    own_steps: u32,
+) -> f64 {
+    let steps = own_steps.div_ceil(HIGHER_LAYER_STEP_DIVISOR);
+    if steps == 0 {
+        return 0.0;
+    }
+    let radius = settings.planet_radius_m;
+    let sun = settings.sun_direction;
+    let axes = horizontal_axes(up);
+    let n = f64::from(steps);
+    let mut optical_depth = 0.0;
+    for layer in layers
+        .iter()
+        .filter(|layer| layer_is_active(layer) && layer.base_m > altitude_m)
+    {
+        // From inside both spheres the ray leaves each through its far root.
+        let enter = intersect_altitude_sphere(altitude_m, mu_sun, radius, layer.base_m)[1];
+        let leave = intersect_altitude_sphere(altitude_m, mu_sun, radius, layer.top_m)[1];
+        if !(enter >= 0.0 && leave > enter) {
+            continue;
+        }
+        let ds = (leave - enter) / n;
+        for k in 0..steps {
+            let s = enter + (f64::from(k) + 0.5) * ds;
+            let point = add(position_m, scale(sun, s));
+            let altitude = altitude_along_ray(altitude_m, mu_sun, s, radius);
+            let horizontal = [dot(point, axes[0]), dot(point, axes[1])];
+            optical_depth += layer_density(
+                textures,
+                layer,
+                horizontal,
+                altitude,
+                footprint_m.max(ds),
+                true,
+            ) * ds;
+        }
     }
     optical_depth
 }

@@ -312,6 +312,52 @@ fn cpu_queries_answer_in_cloud_and_sunlight() {
     );
 }
 
+/// A cloud under a separate deck lies in the deck's shade: the light march of a sample in the
+/// low layer adds the deck's optical depth along the sun's path through it (at the zenith its
+/// thickness times its extinction, at 30° twice that), not only its own layer's.
+#[test]
+fn a_low_cloud_under_a_deck_is_in_its_shade() {
+    let low = slab(0.002);
+    let mut deck = slab(0.001);
+    deck.base_m = 3000.0;
+    deck.top_m = 4000.0;
+    let inside_low = |elevation_deg: f64| MarchSettings {
+        camera_altitude_m: 1500.0,
+        ..slab_settings(64, elevation_deg)
+    };
+    for (elevation_deg, slant) in [(90.0_f64, 1.0_f64), (30.0, 2.0)] {
+        let settings = inside_low(elevation_deg);
+        let alone =
+            transmittance_to_sun(textures(), &settings, std::slice::from_ref(&low), [0.0; 3]);
+        let shaded = transmittance_to_sun(
+            textures(),
+            &settings,
+            &[low.clone(), deck.clone()],
+            [0.0; 3],
+        );
+        // 500 m of the low layer above the point, then 1000 m of the deck (curvature aside).
+        let own = (-0.002 * 500.0 * slant).exp();
+        let expected = own * (-0.001 * 1000.0 * slant).exp();
+        assert!(
+            relative_error(alone, own) < 1e-3,
+            "{elevation_deg}°: alone {alone} vs {own}"
+        );
+        assert!(
+            relative_error(shaded, expected) < 1e-2,
+            "{elevation_deg}°: under the deck {shaded} vs {expected}"
+        );
+    }
+    // The deck does not shade what lies above it, nor a layer beside it in height.
+    let above = MarchSettings {
+        camera_altitude_m: 3500.0,
+        ..inside_low(90.0)
+    };
+    let deck_alone =
+        transmittance_to_sun(textures(), &above, std::slice::from_ref(&deck), [0.0; 3]);
+    let with_low = transmittance_to_sun(textures(), &above, &[low, deck], [0.0; 3]);
+    assert_eq!(deck_alone, with_low);
+}
+
 #[test]
 fn textures_sample_like_a_repeating_trilinear_sampler() {
     let base = &textures().base;

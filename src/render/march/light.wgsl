@@ -15,7 +15,7 @@
     altitude_along_ray, cloud_layer_count, horizontal_axes, layer_is_active, saturate,
     wrap_texel,
 }
-#import bevy_cloudscape::cloud_density::total_extinction
+#import bevy_cloudscape::cloud_density::{layer_density, total_extinction}
 
 // Rust: the constants of the same names in reference/render/light.rs; see their docs there.
 const MIN_DIFFUSE_MU_SUN: f32 = 0.02;
@@ -27,6 +27,7 @@ const LIGHT_STEP_SPAN_M: f32 = 2000.0;
 const MAX_PHASE_G: f32 = 0.999;
 const SHADOW_MAP_NEAR_TEXELS: f32 = 4.0;
 const SHADOW_MAP_NEAR_STEPS: u32 = 2u;
+const HIGHER_LAYER_STEP_DIVISOR: u32 = 4u;
 // Below this optical thickness `mean_step_transmittance` uses its series (Rust: SERIES_LIMIT,
 // 1e-5 there because f64 has expm1).
 const SERIES_LIMIT: f32 = 0.1;
@@ -163,7 +164,8 @@ fn light_step_count(light_steps: u32, distance_m: f32, footprint_m: f32) -> u32 
 // Optical depth toward the sun from `position_m` (relative to the camera at altitude h with
 // vertical up) at `altitude_m`: light_steps steps with boundaries at D (k/n)^2, each sampled
 // `offset` (0-1; the march passes LIGHT_SAMPLE_OFFSET) of the way through; negative when the
-// ground blocks the sun. Rust: `sun_optical_depth`.
+// ground blocks the sun. A full march (max_distance_m FAR_AWAY) adds the layers wholly above
+// the point (`higher_layers_optical_depth`). Rust: `sun_optical_depth`.
 fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f32, footprint_m: f32, max_distance_m: f32, light_steps: u32, offset: f32) -> f32 {
     let radius = clouds.planet_radius_m;
     let sun = clouds.sun_direction.xyz;
@@ -191,6 +193,46 @@ fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f
         let altitude = altitude_along_ray(altitude_m, mu_sun, s, radius);
         let horizontal = vec2<f32>(dot(point, axes.x), dot(point, axes.z));
         optical_depth += total_extinction(horizontal, altitude, max(footprint_m, ds), true) * ds;
+    }
+    if max_distance_m >= FAR_AWAY {
+        optical_depth += higher_layers_optical_depth(up, position_m, altitude_m, mu_sun, footprint_m, steps);
+    }
+    return optical_depth;
+}
+
+// Optical depth toward the sun through every active layer whose base lies above `altitude_m`,
+// each from its base to its top in own_steps / HIGHER_LAYER_STEP_DIVISOR (rounded up) equal
+// steps sampled at their midpoints. Rust: `higher_layers_optical_depth`.
+fn higher_layers_optical_depth(up: vec3<f32>, position_m: vec3<f32>, altitude_m: f32, mu_sun: f32, footprint_m: f32, own_steps: u32) -> f32 {
+    let steps = (own_steps + HIGHER_LAYER_STEP_DIVISOR - 1u) / HIGHER_LAYER_STEP_DIVISOR;
+    if steps == 0u {
+        return 0.0;
+    }
+    let radius = clouds.planet_radius_m;
+    let sun = clouds.sun_direction.xyz;
+    let axes = horizontal_axes(up);
+    let n = f32(steps);
+    var optical_depth = 0.0;
+    let count = cloud_layer_count();
+    for (var i = 0u; i < count; i++) {
+        let layer = cloud_layers[i];
+        if !layer_is_active(layer) || !(layer.base_m > altitude_m) {
+            continue;
+        }
+        // From inside both spheres the ray leaves each through its far root.
+        let enter = intersect_altitude_sphere(altitude_m, mu_sun, radius, layer.base_m).y;
+        let leave = intersect_altitude_sphere(altitude_m, mu_sun, radius, layer.top_m).y;
+        if !(enter >= 0.0 && leave > enter) {
+            continue;
+        }
+        let ds = (leave - enter) / n;
+        for (var k = 0u; k < steps; k++) {
+            let s = enter + (f32(k) + 0.5) * ds;
+            let point = position_m + sun * s;
+            let altitude = altitude_along_ray(altitude_m, mu_sun, s, radius);
+            let horizontal = vec2<f32>(dot(point, axes.x), dot(point, axes.z));
+            optical_depth += layer_density(i, horizontal, altitude, max(footprint_m, ds), true) * ds;
+        }
     }
     return optical_depth;
 }
