@@ -184,9 +184,15 @@ pub const CLOUD_ASYMMETRY: f64 = 0.85;
 /// and some of its observable consequences"), with `g` = [`CLOUD_ASYMMETRY`]. A thick deck still
 /// lets a quarter or so through, as overcast days show.
 pub fn mean_diffuse_transmittance(layers: &[super::render::MarchLayer]) -> f64 {
-    mean_layer_transmittance(layers, |tau| {
-        1.0 / (1.0 + 0.75 * (1.0 - CLOUD_ASYMMETRY) * tau)
-    })
+    mean_layer_transmittance(layers, cloud_diffuse_transmittance)
+}
+
+/// The diffuse transmittance of a non-absorbing cloud of vertical optical thickness `tau`,
+/// `1 / (1 + ¾ (1 − g) τ)` with `g` = [`CLOUD_ASYMMETRY`] (the two-stream result; Bohren 1987,
+/// "Multiple scattering of light and some of its observable consequences"): the share of the
+/// light on its top, beam and diffuse alike, that leaves through its base.
+pub fn cloud_diffuse_transmittance(tau: f64) -> f64 {
+    1.0 / (1.0 + 0.75 * (1.0 - CLOUD_ASYMMETRY) * tau)
 }
 
 /// The haze along one view ray: the part in front of the clouds and the part behind them.

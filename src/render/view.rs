@@ -232,6 +232,7 @@ pub fn march_inputs<'a>(
             march.ambient_bottom = NIGHT_SKY_RADIANCE;
         }
     }
+    crate::reference::render::sky_light_under_layers(&march, &mut march_layers);
     (march, march_layers)
 }
 
@@ -460,7 +461,7 @@ impl GpuCloudUniforms {
     }
 }
 
-/// One layer, laid out as `CloudLayerGpu` in `parameters.wgsl` (224 bytes).
+/// One layer, laid out as `CloudLayerGpu` in `parameters.wgsl` (256 bytes).
 #[derive(ShaderType, Clone, Debug, Default)]
 pub(crate) struct GpuCloudLayer {
     base_m: f32,
@@ -483,6 +484,8 @@ pub(crate) struct GpuCloudLayer {
     far: [Vec4; MAX_FAR_COVERAGES],
     weather_map: Vec4,
     growth: Vec4,
+    sky_light_top: Vec4,
+    sky_light_bottom: Vec4,
 }
 
 impl GpuCloudLayer {
@@ -501,6 +504,7 @@ impl GpuCloudLayer {
 
 impl From<&MarchLayer> for GpuCloudLayer {
     fn from(layer: &MarchLayer) -> Self {
+        let rgb = |v: [f64; 3]| Vec4::new(v[0] as f32, v[1] as f32, v[2] as f32, 0.0);
         let p = |i: usize| layer.profile[i].map(|v| v as f32);
         let pair = |i: usize| {
             let (a, b) = (p(2 * i), p(2 * i + 1));
@@ -546,6 +550,8 @@ impl From<&MarchLayer> for GpuCloudLayer {
                     growth.size[1].max(1) as f32,
                 )
             }),
+            sky_light_top: rgb(layer.sky_light_top),
+            sky_light_bottom: rgb(layer.sky_light_bottom),
         }
     }
 }
@@ -820,7 +826,7 @@ mod tests {
     #[test]
     fn gpu_structs_match_the_shader_layout() {
         assert_eq!(GpuCloudUniforms::min_size().get(), 256);
-        assert_eq!(GpuCloudLayer::min_size().get(), 224);
+        assert_eq!(GpuCloudLayer::min_size().get(), 256);
     }
 
     #[test]

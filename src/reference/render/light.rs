@@ -127,6 +127,15 @@ pub struct SampleLights {
     pub cos_sun: f64,
     /// Cosine of the view ray's zenith angle (positive looking up).
     pub mu_view: f64,
+    /// The part of `sun_optical_depth` in separate layers above the sample's own
+    /// ([`higher_layers_optical_depth`]): the sun on the top of the sample's column is dimmed by
+    /// it (the δ-scaled `e^(−(1 − f) τ)`); what those layers scatter down is in `sky_light`.
+    /// 0 without such layers.
+    pub sun_above_depth: f64,
+    /// Factors on [`MarchSettings::ambient_top`] and [`MarchSettings::ambient_bottom`] at the
+    /// sample ([`MarchLayer::sky_light_top`] and [`MarchLayer::sky_light_bottom`] of its layer;
+    /// their scattering-weighted mean where layers overlap).
+    pub sky_light: [[f64; 3]; 2],
 }
 
 /// Source terms of one sample (σs the scattering, 1/m): the δ-Eddington
@@ -148,7 +157,7 @@ pub struct SampleLights {
 /// `C₁ = k (3μ₀² + 2μ₀ − e_T (3μ₀² − 2μ₀)) / (4/3 + (1 − g)(τa + τb))`, `e_T` the beam's scaled
 /// transmittance through the whole column, and `C₀ = k (3μ₀² + 2μ₀) − 2C₁/3`. For the sky (the
 /// isotropic radiances [`MarchSettings::ambient_top`] on the column's top and
-/// [`MarchSettings::ambient_bottom`] on its base): `I₁ = (A_t − A_b) / (4/3 + (1 − g)(τa + τb))`,
+/// [`MarchSettings::ambient_bottom`] on its base, times the sample's [`SampleLights::sky_light`]): `I₁ = (A_t − A_b) / (4/3 + (1 − g)(τa + τb))`,
 /// `I₀ = A_t − (2/3 + (1 − g) τa) I₁`. The diffuse source is `I₀ + g* μ I₁`.
 ///
 /// The sun's single scattering is split at [`EddingtonPhase::forward_cap`]: the peak above it,
@@ -212,10 +221,12 @@ pub fn sample_source(
         let c0 = k * (3.0 * mu0 * mu0 + 2.0 * mu0) - 2.0 / 3.0 * c1;
         let i1 = c1 - 3.0 * mu0 * k * beam;
         let i0 = c0 - one_minus_g * c1 * column.above - 3.0 * mu0 * mu0 * k * beam;
-        diffuse = (i0 + g_star * mu * i1).max(0.0);
+        // The sun on the column's top, through the layers above.
+        diffuse = (i0 + g_star * mu * i1).max(0.0) * (-(1.0 - f) * lights.sun_above_depth).exp();
     }
     let sky = |c: usize| {
-        let (top, bottom) = (settings.ambient_top[c], settings.ambient_bottom[c]);
+        let top = settings.ambient_top[c] * lights.sky_light[0][c];
+        let bottom = settings.ambient_bottom[c] * lights.sky_light[1][c];
         let i1 = (top - bottom) / transport;
         let i0 = top - (2.0 / 3.0 + one_minus_g * column.above) * i1;
         (i0 + g_star * mu * i1).max(0.0)
@@ -296,11 +307,9 @@ pub const SHADOW_MAP_NEAR_STEPS: u32 = 2;
 /// it; the march uses [`LIGHT_SAMPLE_OFFSET`], the midpoints, whatever the view ray's jitter. A
 /// homogeneous layer is integrated exactly whatever the offset. Altitudes along the light ray come from [`altitude_along_ray`] relative to
 /// the point. The footprint of a light sample is at least its step length, so long steps read
-/// coarse mips. The shells that hold the point are marched so; a full march (`max_distance_m`
-/// infinite) of a point inside a layer then adds the layers wholly above it
-/// ([`higher_layers_optical_depth`]), so low clouds under a deck lie in its shade. A march cut
-/// short leaves them to what reads the rest of the way (the cloud shadow map). WGSL twin:
-/// `sun_optical_depth`.
+/// coarse mips. Only the shells that hold the point are marched: the layers wholly above it
+/// are [`higher_layers_optical_depth`]'s, which the march adds to a full light march (a far
+/// sample's cloud shadow map holds them already). WGSL twin: `sun_optical_depth`.
 pub fn sun_optical_depth(
     textures: &CloudTextures,
     settings: &MarchSettings,
@@ -352,30 +361,17 @@ pub fn sun_optical_depth(
         );
         optical_depth += extinction * ds;
     }
-    if max_distance_m == f64::INFINITY {
-        optical_depth += higher_layers_optical_depth(
-            textures,
-            settings,
-            layers,
-            up,
-            position_m,
-            altitude_m,
-            mu_sun,
-            footprint_m,
-            steps,
-        );
-    }
     optical_depth
 }
 
 /// Light-march steps through each layer above a sample's own: one per this many of the
-/// sample's own light-march steps, rounded up. A layer seen from below casts a shade whose
+/// sample's light steps ([`MarchSettings::light_steps`] as the march gives them), rounded up. A layer seen from below casts a shade whose
 /// detail the sample's own light march does not need. WGSL twin: `HIGHER_LAYER_STEP_DIVISOR`.
 pub const HIGHER_LAYER_STEP_DIVISOR: u32 = 4;
 
 /// Optical depth toward the sun, beyond the sample's own layers, through every active layer
 /// whose base lies above `altitude_m`: each crossed from its base to its top in
-/// `own_steps /` [`HIGHER_LAYER_STEP_DIVISOR`] (rounded up) equal steps sampled at their
+/// `light_steps /` [`HIGHER_LAYER_STEP_DIVISOR`] (rounded up) equal steps sampled at their
 /// midpoints, with the layer's full density ([`layer_density`]) at a footprint of at least the
 /// step. 0 without such layers. Without it a low cloud under an overcast deck would take the
 /// full sun. The point is at `position_m` relative to a camera with local vertical `up`, and the
@@ -390,9 +386,9 @@ pub fn higher_layers_optical_depth(
     altitude_m: f64,
     mu_sun: f64,
     footprint_m: f64,
-    own_steps: u32,
+    light_steps: u32,
 ) -> f64 {
-    let steps = own_steps.div_ceil(HIGHER_LAYER_STEP_DIVISOR);
+    let steps = light_steps.div_ceil(HIGHER_LAYER_STEP_DIVISOR);
     if steps == 0 {
         return 0.0;
     }
@@ -545,4 +541,69 @@ pub fn deck_irradiance(
     }
     irradiance.diffuse = irradiance.diffuse.max(0.0);
     irradiance
+}
+
+/// Sets each layer's [`MarchLayer::sky_light_top`] and [`MarchLayer::sky_light_bottom`] from the
+/// active layers wholly above it (their base at or above its top), taken from the highest down,
+/// each as a sheet of its coverage `c` and vertical optical thickness `τ = σ h`: the radiance `L`
+/// from above becomes `(1 − c) L + c (T_d L + (T_d − b)⁺ E/π)` and the sun's direct
+/// irradiance `E` (on a horizontal surface) becomes `E (1 − c (1 − b))`, with the beam
+/// `b = e^(−(1 − f) τ/μ₀)` as the δ-scaled medium passes it ([`EddingtonPhase`]), `T_d` the
+/// diffuse transmittance ([`cloud_diffuse_transmittance`](crate::reference::haze::cloud_diffuse_transmittance))
+/// and `μ₀` the sine of the sun's elevation (at least 0.05). The top factor is `L` over the
+/// open sky's [`MarchSettings::ambient_top`], the bottom factor the irradiance left under
+/// the layers above, `E + π L`, over the open sky's: the ground lit by less light sends less
+/// back. The direct sun through the gaps is the light march's ([`higher_layers_optical_depth`]).
+/// A layer with nothing above it keeps factors of 1.
+pub fn sky_light_under_layers(settings: &MarchSettings, layers: &mut [MarchLayer]) {
+    let mu0 = dot(settings.sun_direction, settings.camera_up).max(0.0);
+    let slant = mu0.max(0.05);
+    // The beam as the march's δ-scaled medium passes it (what a sample under the layer takes
+    // as sun: `SampleLights::sun_above_depth`); the rest of T_d is scattered.
+    let scaled = 1.0 - eddington_phase(settings).forward_fraction;
+    let sun = settings.sun_illuminance.map(|e| e * mu0);
+    let sky = settings.ambient_top;
+    let open_flux: [f64; 3] = std::array::from_fn(|c| sun[c] + std::f64::consts::PI * sky[c]);
+    let sheets: Vec<(f64, f64, f64, f64)> = layers
+        .iter()
+        .filter(|layer| layer_is_active(layer))
+        .map(|layer| {
+            let tau = layer.extinction * (layer.top_m - layer.base_m);
+            (
+                layer.base_m,
+                layer.top_m,
+                layer.coverage.clamp(0.0, 1.0),
+                tau,
+            )
+        })
+        .collect();
+    for layer in layers.iter_mut() {
+        let mut above: Vec<_> = sheets
+            .iter()
+            .filter(|(base, ..)| *base >= layer.top_m)
+            .collect();
+        if above.is_empty() {
+            layer.sky_light_top = [1.0; 3];
+            layer.sky_light_bottom = [1.0; 3];
+            continue;
+        }
+        above.sort_by(|a, b| b.1.total_cmp(&a.1));
+        let (mut radiance, mut direct) = (sky, sun);
+        for &&(_, _, coverage, tau) in &above {
+            let through = crate::reference::haze::cloud_diffuse_transmittance(tau);
+            let beam = (-scaled * tau / slant).exp();
+            let scattered = (through - beam).max(0.0);
+            for c in 0..3 {
+                radiance[c] = (1.0 - coverage) * radiance[c]
+                    + coverage
+                        * (through * radiance[c] + scattered * direct[c] / std::f64::consts::PI);
+                direct[c] *= 1.0 - coverage * (1.0 - beam);
+            }
+        }
+        let ratio = |value: f64, open: f64| if open > 0.0 { value / open } else { 1.0 };
+        layer.sky_light_top = std::array::from_fn(|c| ratio(radiance[c], sky[c]));
+        layer.sky_light_bottom = std::array::from_fn(|c| {
+            ratio(direct[c] + std::f64::consts::PI * radiance[c], open_flux[c])
+        });
+    }
 }

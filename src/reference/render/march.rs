@@ -9,10 +9,10 @@ use super::ray_start_jitter;
 use super::{
     CloudColumn, CloudTextures, EddingtonPhase, LIGHT_SAMPLE_OFFSET, MarchLayer, MarchSettings,
     SHADOW_MAP_NEAR_STEPS, SHADOW_MAP_NEAR_TEXELS, SampleLights, add, altitude_along_ray, dot,
-    eddington_phase, ground_distance, horizontal_axes, is_positive, layer_density, layer_is_active,
-    lerp, mean_step_transmittance, next_cloud_interval, point_mu_sun, profile_column,
-    sample_source, saturate, scale, scattering_albedo, step_warp, sun_optical_depth,
-    total_extinction,
+    eddington_phase, ground_distance, higher_layers_optical_depth, horizontal_axes, is_positive,
+    layer_density, layer_is_active, lerp, mean_step_transmittance, next_cloud_interval,
+    point_mu_sun, profile_column, sample_source, saturate, scale, scattering_albedo, step_warp,
+    sun_optical_depth, total_extinction,
 };
 use crate::reference::shadow::ShadowMapImage;
 
@@ -104,6 +104,9 @@ struct Medium {
     scattering: f64,
     column: CloudColumn,
     ambient: [f64; 3],
+    /// The sky-light factors of the layers at the point, weighted by their scattering
+    /// ([`SampleLights::sky_light`]); divided by `scattering` once summed.
+    sky_light: [[f64; 3]; 2],
 }
 
 /// What a ray sees: in-scattered radiance and view transmittance, composited as
@@ -324,7 +327,14 @@ impl Ray<'_> {
                 // "Day / Night Cycle").
                 let h = saturate((altitude - layer.base_m) / (layer.top_m - layer.base_m));
                 for (c, a) in medium.ambient.iter_mut().enumerate() {
-                    *a += sigma_s * lerp(settings.ambient_bottom[c], settings.ambient_top[c], h);
+                    *a += sigma_s
+                        * lerp(
+                            settings.ambient_bottom[c] * layer.sky_light_bottom[c],
+                            settings.ambient_top[c] * layer.sky_light_top[c],
+                            h,
+                        );
+                    medium.sky_light[0][c] += sigma_s * layer.sky_light_top[c];
+                    medium.sky_light[1][c] += sigma_s * layer.sky_light_bottom[c];
                 }
                 medium.extinction += sigma;
                 medium.scattering += sigma_s;
@@ -335,6 +345,11 @@ impl Ray<'_> {
                 let below = profile_column(layer, h);
                 medium.column.above += full * (profile_column(layer, 1.0) - below);
                 medium.column.below += full * below;
+            }
+        }
+        if medium.scattering > 0.0 {
+            for factor in medium.sky_light.iter_mut().flatten() {
+                *factor /= medium.scattering;
             }
         }
         medium
@@ -451,6 +466,7 @@ impl Ray<'_> {
             scattering,
             column,
             ambient,
+            sky_light,
         } = *medium;
         let altitude = self.altitude(t);
         let footprint = t * settings.pixel_angle_rad;
@@ -463,6 +479,7 @@ impl Ray<'_> {
             altitude,
         );
         let mut sun_optical_depth_at = None;
+        let mut sun_above_depth = 0.0;
         let light_steps = light_steps_at(
             self.light_steps,
             self.transmittance,
@@ -503,7 +520,25 @@ impl Ray<'_> {
                         near_depth + far
                     })
                 });
-            let optical_depth = from_map.unwrap_or_else(|| light_march(f64::INFINITY, light_steps));
+            // A full light march then crosses the layers above the sample's own (the map holds
+            // them already).
+            let optical_depth = from_map.unwrap_or_else(|| {
+                let own = light_march(f64::INFINITY, light_steps);
+                if own >= 0.0 {
+                    sun_above_depth = higher_layers_optical_depth(
+                        self.textures,
+                        settings,
+                        self.layers,
+                        self.up,
+                        position,
+                        altitude,
+                        mu_sun,
+                        footprint,
+                        light_steps,
+                    );
+                }
+                own + sun_above_depth
+            });
             if optical_depth >= 0.0 {
                 sun_optical_depth_at = Some(optical_depth);
             }
@@ -519,6 +554,8 @@ impl Ray<'_> {
                 mu_sun,
                 cos_sun: self.cos_sun,
                 mu_view: self.mu,
+                sun_above_depth,
+                sky_light,
             },
         );
         // Hillaire 2016: ∫ T(x) S dx over the step = T · S · dt · (1 − e^(−σt dt)) / (σt dt),

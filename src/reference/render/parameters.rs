@@ -210,6 +210,14 @@ pub struct MarchLayer {
     /// The clouds of the growth automaton, which replace the weather noise's pattern
     /// ([`weather_texel_coverage`](super::weather_texel_coverage)). Default: none.
     pub growth: Option<LayerGrowth>,
+    /// The sky light on this layer's top, as a factor per RGB channel on
+    /// [`MarchSettings::ambient_top`]: 1 under an open sky; under separate layers above it the
+    /// light they let through, sky and scattered sun ([`sky_light_under_layers`]). Default 1.
+    pub sky_light_top: [f64; 3],
+    /// The light from below on this layer, as a factor per RGB channel on
+    /// [`MarchSettings::ambient_bottom`]: 1 under an open sky; under separate layers above it the
+    /// share of the ground's light left ([`sky_light_under_layers`]). Default 1.
+    pub sky_light_bottom: [f64; 3],
 }
 
 /// A layer's clouds from the cloud-growth automaton ([`crate::reference::growth`]): how much of
@@ -267,6 +275,8 @@ impl Default for MarchLayer {
             far: [[0.0; 4]; MAX_FAR_COVERAGES],
             far_count: 0,
             growth: None,
+            sky_light_top: [1.0; 3],
+            sky_light_bottom: [1.0; 3],
         };
         layer.set_profile(&[[0.0, 0.0], [0.1, 1.0], [0.6, 0.8], [1.0, 0.0]]);
         layer

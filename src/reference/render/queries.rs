@@ -3,8 +3,8 @@
 
 use super::{
     CloudTextures, MarchLayer, MarchResult, MarchSettings, altitude_of, dot, dual_lobe_phase,
-    horizontal_axes, layer_is_active, mean_step_transmittance, scattering_albedo,
-    sun_optical_depth, total_extinction,
+    higher_layers_optical_depth, horizontal_axes, layer_is_active, mean_step_transmittance,
+    point_mu_sun, scattering_albedo, sun_optical_depth, total_extinction,
 };
 
 /// Cloud extinction coefficient, 1/m, at `position_m` (world-space metres relative to the
@@ -35,8 +35,9 @@ pub fn is_in_cloud(
 
 /// Fraction of direct sunlight reaching `position_m` (relative to the camera) through the
 /// clouds, 0–1: `e^(−τ)` of the light march ([`sun_optical_depth`]) of the layers that hold the
-/// point, 0 in the planet's shadow, 1 outside every layer: the direct beam, without the light
-/// scattered toward it.
+/// point and of the layers wholly above them ([`higher_layers_optical_depth`]), 0 in the
+/// planet's shadow, 1 outside every layer: the direct beam, without the light scattered toward
+/// it.
 pub fn transmittance_to_sun(
     textures: &CloudTextures,
     settings: &MarchSettings,
@@ -58,10 +59,35 @@ pub fn transmittance_to_sun(
         0.5,
     );
     if optical_depth < 0.0 {
-        0.0
-    } else {
-        (-optical_depth).exp()
+        return 0.0;
     }
+    // Inside a layer's shell, the layers wholly above it shade it too.
+    let inside = layers
+        .iter()
+        .any(|layer| layer_is_active(layer) && altitude >= layer.base_m && altitude <= layer.top_m);
+    let above = if inside {
+        let mu_sun = point_mu_sun(
+            settings,
+            settings.camera_altitude_m,
+            settings.camera_up,
+            position_m,
+            altitude,
+        );
+        higher_layers_optical_depth(
+            textures,
+            settings,
+            layers,
+            settings.camera_up,
+            position_m,
+            altitude,
+            mu_sun,
+            0.0,
+            settings.light_steps,
+        )
+    } else {
+        0.0
+    };
+    (-(optical_depth + above)).exp()
 }
 
 /// Closed form of the march for a homogeneous slab: `layer` with coverage 1, shape strength 0

@@ -312,6 +312,63 @@ fn cpu_queries_answer_in_cloud_and_sunlight() {
     );
 }
 
+/// The sky light on a cloud under a separate deck is the light the deck lets through: the
+/// irradiance under it (the bottom factor) is the deck's diffuse transmittance, a thicker deck
+/// lets through less, a deck with no coverage changes nothing, and the low cloud, marched, is
+/// darker under the deck than under an open sky.
+#[test]
+fn a_low_cloud_under_a_deck_takes_the_light_the_deck_lets_through() {
+    let low = slab(0.01);
+    let deck = |extinction: f64, coverage: f64| MarchLayer {
+        base_m: 3000.0,
+        top_m: 4000.0,
+        coverage,
+        ..slab(extinction)
+    };
+    let settings = MarchSettings {
+        multiple_scattering: true,
+        ..slab_settings(64, 30.0)
+    };
+    let lit = |deck: &MarchLayer| {
+        let mut layers = vec![low.clone(), deck.clone()];
+        sky_light_under_layers(&settings, &mut layers);
+        assert_eq!(layers[1].sky_light_top, [1.0; 3], "nothing above the deck");
+        layers
+    };
+    for tau in [2.0, 10.0, 33.0] {
+        let thick = deck(tau / 1000.0, 1.0);
+        let layers = lit(&thick);
+        let expected = crate::reference::haze::mean_diffuse_transmittance(&[thick]);
+        for c in 0..3 {
+            assert!(
+                relative_error(layers[0].sky_light_bottom[c], expected) < 1e-9,
+                "tau {tau}: {:?} vs {expected}",
+                layers[0].sky_light_bottom
+            );
+        }
+    }
+    let thin = lit(&deck(0.002, 1.0))[0].sky_light_bottom[1];
+    let thick = lit(&deck(0.033, 1.0))[0].sky_light_bottom[1];
+    assert!(thick < 0.5 * thin, "{thick} vs {thin}");
+    assert_eq!(lit(&deck(0.033, 0.0))[0].sky_light_top, [1.0; 3]);
+    // Seen from under both, looking up into the low cloud's base.
+    let camera = MarchSettings {
+        camera_altitude_m: 500.0,
+        ..settings.clone()
+    };
+    let open = march_up(&camera, std::slice::from_ref(&low));
+    let mut stack = vec![low.clone(), deck(0.033, 1.0)];
+    sky_light_under_layers(&camera, &mut stack);
+    let shaded = march_up(&camera, &stack);
+    let luminance = |r: &MarchResult| r.radiance.iter().sum::<f64>();
+    assert!(
+        luminance(&shaded) < 0.5 * luminance(&open),
+        "under the deck {} vs open {}",
+        luminance(&shaded),
+        luminance(&open)
+    );
+}
+
 /// A cloud under a separate deck lies in the deck's shade: the light march of a sample in the
 /// low layer adds the deck's optical depth along the sun's path through it (at the zenith its
 /// thickness times its extinction, at 30° twice that), not only its own layer's.

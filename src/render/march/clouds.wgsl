@@ -13,7 +13,8 @@
 }
 #import bevy_cloudscape::cloud_light::{
     LIGHT_SAMPLE_OFFSET, SHADOW_MAP_NEAR_STEPS, SHADOW_MAP_NEAR_TEXELS, SampleSource,
-    mean_step_transmittance, point_mu_sun, sample_source, sun_optical_depth,
+    higher_layers_optical_depth, mean_step_transmittance, point_mu_sun, sample_source,
+    sun_optical_depth,
 }
 #import bevy_cloudscape::cloud_shadow::{map_sun_optical_depth, shadow_map_covers, shadow_map_uv}
 
@@ -89,8 +90,11 @@ const NO_SAMPLE: u32 = 0xffffffffu;
 
 // A sample waiting for its light march.
 struct QueuedSample {
-    // Medium.ambient.
+    // Medium.ambient without multiple scattering, which alone reads it; with it
+    // Medium.sky_light_top, which alone that reads (the queue's private memory is what costs).
     ambient: vec3<f32>,
+    // Medium.sky_light_bottom.
+    sky_light_bottom: vec3<f32>,
     // Distance along the view ray, m.
     t: f32,
     scattering: f32,
@@ -200,9 +204,14 @@ fn ray_altitude(ray: ptr<function, MarchRay>, t: f32) -> f32 {
 
 // Cheap base-only extinction of every layer at distance t. Rust: `Ray::cheap_extinction`.
 fn cheap_extinction(ray: ptr<function, MarchRay>, t: f32) -> f32 {
+    return cheap_or_full_extinction(ray, t, false);
+}
+
+// The extinction of every layer at distance t, base-only or (`with_detail`) full detail.
+fn cheap_or_full_extinction(ray: ptr<function, MarchRay>, t: f32, with_detail: bool) -> f32 {
     let altitude = ray_altitude(ray, t);
     let horizontal = (*ray).horizontal_direction * t;
-    return total_extinction(horizontal, altitude, t * clouds.pixel_angle_rad, false);
+    return total_extinction(horizontal, altitude, t * clouds.pixel_angle_rad, with_detail);
 }
 
 // Extinction, scattering and ambient source of the medium at one point. Rust: `Medium`.
@@ -214,6 +223,10 @@ struct Medium {
     column_below: f32,
     // The height-graded sky light of the single-scattering light.
     ambient: vec3<f32>,
+    // The layers' sky-light factors at the point, weighted by their scattering (Rust:
+    // `Medium::sky_light`).
+    sky_light_top: vec3<f32>,
+    sky_light_bottom: vec3<f32>,
 }
 
 // The medium at distance t, full detail. Rust: `Ray::medium`.
@@ -221,7 +234,7 @@ fn ray_medium(ray: ptr<function, MarchRay>, t: f32) -> Medium {
     let altitude = ray_altitude(ray, t);
     let horizontal = (*ray).horizontal_direction * t;
     let footprint = t * clouds.pixel_angle_rad;
-    var medium = Medium(0.0, 0.0, 0.0, 0.0, vec3<f32>(0.0));
+    var medium = Medium(0.0, 0.0, 0.0, 0.0, vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
     let count = cloud_layer_count();
     for (var i = 0u; i < count; i++) {
         let layer = cloud_layers[i];
@@ -230,7 +243,9 @@ fn ray_medium(ray: ptr<function, MarchRay>, t: f32) -> Medium {
             let sigma_s = sigma * scattering_albedo(layer);
             // Ambient sky light grows from the base to the top (Pérez Martín 2022, "Day / Night Cycle").
             let height = saturate((altitude - layer.base_m) / (layer.top_m - layer.base_m));
-            medium.ambient += sigma_s * mix(clouds.ambient_bottom.xyz, clouds.ambient_top.xyz, height);
+            medium.ambient += sigma_s * mix(clouds.ambient_bottom.xyz * layer.sky_light_bottom.xyz, clouds.ambient_top.xyz * layer.sky_light_top.xyz, height);
+            medium.sky_light_top += sigma_s * layer.sky_light_top.xyz;
+            medium.sky_light_bottom += sigma_s * layer.sky_light_bottom.xyz;
             medium.extinction += sigma;
             medium.scattering += sigma_s;
             // The column of a cloud at full density above and below (Rust: `Ray::medium`).
@@ -239,6 +254,10 @@ fn ray_medium(ray: ptr<function, MarchRay>, t: f32) -> Medium {
             medium.column_above += full * (profile_column(i, 1.0) - below);
             medium.column_below += full * below;
         }
+    }
+    if medium.scattering > 0.0 {
+        medium.sky_light_top /= medium.scattering;
+        medium.sky_light_bottom /= medium.scattering;
     }
     return medium;
 }
@@ -295,7 +314,8 @@ fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32, clear_from: f32) -
         var hi = t;
         for (var i = 0u; i < EDGE_SEARCH_STEPS; i++) {
             let mid = 0.5 * (lo + hi);
-            if ray_medium(ray, mid).extinction > 0.0 {
+            // The extinction alone (`ray_medium`'s, without the rest of the medium).
+            if cheap_or_full_extinction(ray, mid, true) > 0.0 {
                 hi = mid;
             } else {
                 lo = mid;
@@ -386,7 +406,8 @@ fn integrate_step(ray: ptr<function, MarchRay>, t: f32, dt: f32, medium: Medium,
     let scaled_weight = exp(-scaled * (*ray).optical_depth) * dt * mean_step_transmittance(scaled * x);
     // Deep in the cloud, and past the true medium's cut-off, fewer light steps.
     let light_steps = light_steps_at((*ray).light_steps, (*ray).transmittance, cutoff_transmittance(ray), clouds.transmittance_cutoff);
-    light_queue[queued] = QueuedSample(medium.ambient, t, medium.scattering, medium.column_above, medium.column_below, extinction, share * weight, share * scaled_weight, light_steps);
+    let ambient = select(medium.ambient, medium.sky_light_top, clouds.multiple_scattering != 0u);
+    light_queue[queued] = QueuedSample(ambient, medium.sky_light_bottom, t, medium.scattering, medium.column_above, medium.column_below, extinction, share * weight, share * scaled_weight, light_steps);
     (*ray).tail_a = queued;
     (*ray).tail_share_a = 1.0;
     (*ray).tail_b = NO_SAMPLE;
@@ -439,6 +460,7 @@ fn light_sample(ray: ptr<function, MarchRay>, sample: QueuedSample) -> SampleSou
     let mu_sun = point_mu_sun((*ray).camera_altitude_m, (*ray).up, position, altitude);
     let light_steps = sample.light_steps;
     var optical_depth = -1.0;
+    var above = 0.0;
     if (*ray).sun_on {
         // A far sample marches only the first texels toward the sun and reads the rest of the
         // way from the shadow map, where the map covers it (Rust: `Ray::integrate`).
@@ -453,9 +475,14 @@ fn light_sample(ray: ptr<function, MarchRay>, sample: QueuedSample) -> SampleSou
             }
         } else {
             optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, FAR_AWAY, light_steps, LIGHT_SAMPLE_OFFSET);
+            // Then the layers above the sample's own (the map holds them already).
+            if optical_depth >= 0.0 {
+                above = higher_layers_optical_depth((*ray).up, position, altitude, mu_sun, footprint, light_steps);
+                optical_depth += above;
+            }
         }
     }
-    return sample_source(sample.scattering, sample.column_above, sample.column_below, sample.ambient, optical_depth, mu_sun, (*ray).cos_sun, (*ray).mu);
+    return sample_source(sample.scattering, sample.column_above, sample.column_below, sample.ambient, sample.ambient, sample.sky_light_bottom, optical_depth, above, mu_sun, (*ray).cos_sun, (*ray).mu);
 }
 
 // How many of a ray's steps the interval [start_m, end_m] calls for: its length over the step's

@@ -57,14 +57,19 @@ struct SampleSource {
 }
 
 // The delta-Eddington source-function light with the single scattering split at the forward
-// peak; `sun_depth` negative when the sun does not reach the sample. Rust: `sample_source` (its
-// docs give the equations).
+// peak; `sun_depth` negative when the sun does not reach the sample, `sun_above_depth` its part
+// in the layers above the sample's own; `sky_light_*` the sample's factors on the sky light
+// (Rust: `SampleLights::sun_above_depth`, `sky_light`). Rust: `sample_source` (its docs
+// give the equations).
 fn sample_source(
     scattering: f32,
     column_above_in: f32,
     column_below: f32,
     ambient: vec3<f32>,
+    sky_light_top: vec3<f32>,
+    sky_light_bottom: vec3<f32>,
     sun_depth: f32,
+    sun_above_depth: f32,
     mu_sun: f32,
     cos_sun: f32,
     mu_view: f32,
@@ -104,10 +109,11 @@ fn sample_source(
         let c0 = k * (3.0 * mu0 * mu0 + 2.0 * mu0) - 2.0 / 3.0 * c1;
         let i1 = c1 - 3.0 * mu0 * k * beam;
         let i0 = c0 - one_minus_g * c1 * column_above - 3.0 * mu0 * mu0 * k * beam;
-        diffuse = max(i0 + g_star * mu_view * i1, 0.0);
+        // The sun on the column's top, through the layers above.
+        diffuse = max(i0 + g_star * mu_view * i1, 0.0) * exp(-(1.0 - f) * sun_above_depth);
     }
-    let top = clouds.ambient_top.xyz;
-    let bottom = clouds.ambient_bottom.xyz;
+    let top = clouds.ambient_top.xyz * sky_light_top;
+    let bottom = clouds.ambient_bottom.xyz * sky_light_bottom;
     let i1 = (top - bottom) / transport;
     let i0 = top - (2.0 / 3.0 + one_minus_g * column_above) * i1;
     let sky = max(i0 + g_star * mu_view * i1, vec3<f32>(0.0));
@@ -164,8 +170,8 @@ fn light_step_count(light_steps: u32, distance_m: f32, footprint_m: f32) -> u32 
 // Optical depth toward the sun from `position_m` (relative to the camera at altitude h with
 // vertical up) at `altitude_m`: light_steps steps with boundaries at D (k/n)^2, each sampled
 // `offset` (0-1; the march passes LIGHT_SAMPLE_OFFSET) of the way through; negative when the
-// ground blocks the sun. A full march (max_distance_m FAR_AWAY) adds the layers wholly above
-// the point (`higher_layers_optical_depth`). Rust: `sun_optical_depth`.
+// ground blocks the sun. Only the shells that hold the point: the march adds
+// `higher_layers_optical_depth` to a full light march. Rust: `sun_optical_depth`.
 fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f32, footprint_m: f32, max_distance_m: f32, light_steps: u32, offset: f32) -> f32 {
     let radius = clouds.planet_radius_m;
     let sun = clouds.sun_direction.xyz;
@@ -194,17 +200,14 @@ fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f
         let horizontal = vec2<f32>(dot(point, axes.x), dot(point, axes.z));
         optical_depth += total_extinction(horizontal, altitude, max(footprint_m, ds), true) * ds;
     }
-    if max_distance_m >= FAR_AWAY {
-        optical_depth += higher_layers_optical_depth(up, position_m, altitude_m, mu_sun, footprint_m, steps);
-    }
     return optical_depth;
 }
 
 // Optical depth toward the sun through every active layer whose base lies above `altitude_m`,
-// each from its base to its top in own_steps / HIGHER_LAYER_STEP_DIVISOR (rounded up) equal
+// each from its base to its top in light_steps / HIGHER_LAYER_STEP_DIVISOR (rounded up) equal
 // steps sampled at their midpoints. Rust: `higher_layers_optical_depth`.
-fn higher_layers_optical_depth(up: vec3<f32>, position_m: vec3<f32>, altitude_m: f32, mu_sun: f32, footprint_m: f32, own_steps: u32) -> f32 {
-    let steps = (own_steps + HIGHER_LAYER_STEP_DIVISOR - 1u) / HIGHER_LAYER_STEP_DIVISOR;
+fn higher_layers_optical_depth(up: vec3<f32>, position_m: vec3<f32>, altitude_m: f32, mu_sun: f32, footprint_m: f32, light_steps: u32) -> f32 {
+    let steps = (light_steps + HIGHER_LAYER_STEP_DIVISOR - 1u) / HIGHER_LAYER_STEP_DIVISOR;
     if steps == 0u {
         return 0.0;
     }

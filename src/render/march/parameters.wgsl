@@ -118,6 +118,10 @@ struct CloudLayerGpu {
     // The growth automaton's clouds (Rust: `MarchLayer::growth`): x 1 when the layer grows, y its
     // slice of `growth_cover`, zw the grid's columns along x and y.
     growth: vec4<f32>,
+    // Factors on clouds.ambient_top and ambient_bottom for this layer (xyz), 1 under an open
+    // sky (Rust: `MarchLayer::sky_light_top`, `sky_light_bottom`).
+    sky_light_top: vec4<f32>,
+    sky_light_bottom: vec4<f32>,
 }
 
 @group(0) @binding(2) var<uniform> clouds: CloudUniforms;
