@@ -212,11 +212,11 @@ pub struct MarchLayer {
     pub growth: Option<LayerGrowth>,
     /// The sky light on this layer's top, as a factor per RGB channel on
     /// [`MarchSettings::ambient_top`]: 1 under an open sky; under separate layers above it the
-    /// light they let through, sky and scattered sun ([`sky_light_under_layers`]). Default 1.
+    /// light they let through, sky and scattered sun ([`sky_light_under_layers`](super::sky_light_under_layers)). Default 1.
     pub sky_light_top: [f64; 3],
     /// The light from below on this layer, as a factor per RGB channel on
     /// [`MarchSettings::ambient_bottom`]: 1 under an open sky; under separate layers above it the
-    /// share of the ground's light left ([`sky_light_under_layers`]). Default 1.
+    /// share of the ground's light left ([`sky_light_under_layers`](super::sky_light_under_layers)). Default 1.
     pub sky_light_bottom: [f64; 3],
 }
 
