@@ -14,7 +14,10 @@ use bevy_cloudscape::{
 };
 
 use crate::common::scenes::*;
-use crate::harness::{Headless, TWIN_RELATIVE_RMSE, TWIN_T_RMSE, output_dir, twin_difference};
+use crate::harness::{
+    Headless, TWIN_RELATIVE_RMSE, TWIN_T_RMSE, output_dir, straight_horizontal_steps,
+    twin_difference,
+};
 
 #[test]
 fn showcase_scenes_match_the_cpu_reference() {
@@ -57,6 +60,93 @@ fn showcase_scenes_match_the_cpu_reference() {
             "{}: the scene must actually show cloud (mean T {mean_t})",
             scene.name
         );
+    }
+}
+
+/// No frame draws a straight horizontal step in luminance across more than half its width
+/// (`straight_horizontal_steps`) anywhere but at the horizon, where the ground and the layers
+/// seen edge-on end (within two rows of it). Three weathers looking out over the horizon: fair
+/// cumulus, an overcast deck, and a rain deck at evening (stratus 150-450 m at 42 % around a
+/// camera 300 m up, an altostratus deck 2.8-5 km at 92 % and cirrostratus, the sun 6° up
+/// beside the view). A map's edge, a blend's end or a shade that stops at some distance would
+/// each draw such a line above or below the horizon.
+#[test]
+fn frames_show_no_straight_steps_off_the_horizon() {
+    let size = UVec2::new(160, 90);
+    let (_textures, mut rig) = small_rig(size);
+    let fair = Scene {
+        name: "steps_fair_cumulus",
+        camera: looking(Vec3::new(0.0, 2.0, 0.0), 8.0, 0.0),
+        sun_deg: (40.0, 150.0),
+        layers: vec![layer(CloudKind::Cumulus, 0.5)],
+        settings: settings(64),
+    };
+    let overcast = Scene {
+        name: "steps_overcast",
+        layers: vec![layer(CloudKind::Stratus, 1.0)],
+        ..fair.clone()
+    };
+    let evening = Scene {
+        name: "steps_rain_deck_evening",
+        camera: looking(Vec3::new(0.0, 300.0, 0.0), 8.0, 0.0),
+        sun_deg: (6.0, 60.0),
+        layers: vec![
+            CloudLayer {
+                base_m: 150.0,
+                top_m: 450.0,
+                ..layer(CloudKind::Stratus, 0.42)
+            },
+            CloudLayer {
+                base_m: 2_800.0,
+                top_m: 5_000.0,
+                ..layer(CloudKind::Altostratus, 0.92)
+            },
+            layer(CloudKind::Cirrostratus, 0.7),
+        ],
+        ..fair.clone()
+    };
+    for scene in [fair, overcast, evening] {
+        rig.set_scene(&scene);
+        let (l, t) = rig.render(4);
+        save_strip(
+            &output_dir().join(format!("clouds_{}.png", scene.name)),
+            size,
+            &[&l],
+        );
+        let mean_t = t.iter().map(|t| f64::from(*t)).sum::<f64>() / t.len() as f64;
+        assert!(
+            mean_t < 0.9,
+            "{}: the frame must show cloud (mean T {mean_t})",
+            scene.name
+        );
+        let (camera, transform) = {
+            let world = rig.app.world();
+            let camera = world.get::<Camera>(rig.camera).unwrap().clone();
+            let transform = *world.get::<GlobalTransform>(rig.camera).unwrap();
+            (camera, transform)
+        };
+        let elevation = |y: f32| {
+            let ray = camera
+                .viewport_to_world(&transform, Vec2::new(0.5 * size.x as f32, y))
+                .unwrap();
+            ray.direction.y.asin()
+        };
+        let row_angle = elevation(0.0) - elevation(1.0);
+        // The horizon dips below level by acos(R / (R + h)): 0.56° from 300 m up.
+        let dip = (6_371_000.0f32 / (6_371_000.0 + scene.camera.translation.y)).acos();
+        for row in straight_horizontal_steps(&l, size) {
+            let at = elevation(row as f32);
+            assert!(
+                at <= 2.0 * row_angle && at >= -dip - 2.0 * row_angle,
+                "{}: a straight step at row {row}, {:.2}° from level, away from the horizon \
+                 (see {})",
+                scene.name,
+                at.to_degrees(),
+                output_dir()
+                    .join(format!("clouds_{}.png", scene.name))
+                    .display()
+            );
+        }
     }
 }
 

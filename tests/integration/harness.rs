@@ -66,3 +66,76 @@ fn buffers_read_back_as_written() {
     assert_eq!(app.read_buffer(&buffer, 0, 1000), data);
     assert_eq!(app.read_buffer(&buffer, 256, 8), data[256..264]);
 }
+
+/// Smallest change of luminance between two neighbouring rows, as a ratio, that counts toward a
+/// straight step: a quarter brighter or darker.
+pub const STEP_RATIO: f64 = 1.25;
+
+/// The rows `y` (1..height) where the image steps along a straight horizontal line: more than
+/// half of the columns change from row `y − 1` to row `y` by more than [`STEP_RATIO`], all the
+/// same way (brighter, or darker). No photograph of a sky shows one except at the horizon or
+/// the edge of a layer seen edge-on; a fault in a renderer (a map's edge, a blend's end, a
+/// shadow beyond its map) often draws one. `l` is linear RGB per pixel, rows from the top.
+pub fn straight_horizontal_steps(l: &[[f32; 3]], size: bevy::math::UVec2) -> Vec<u32> {
+    let (w, h) = (size.x as usize, size.y as usize);
+    assert_eq!(l.len(), w * h, "an image of {w} x {h}");
+    let luminance = |p: &[f32; 3]| {
+        0.2126 * f64::from(p[0]) + 0.7152 * f64::from(p[1]) + 0.0722 * f64::from(p[2])
+    };
+    // Black (below the horizon of an empty scene) is as dark as the dimmest light a frame
+    // shows: a step into it counts like any other.
+    let floor = l.iter().map(luminance).fold(0.0, f64::max) * 1e-4 + 1e-12;
+    let threshold = STEP_RATIO.ln();
+    (1..h)
+        .filter(|&y| {
+            let (mut up, mut down) = (0, 0);
+            for x in 0..w {
+                let a = luminance(&l[(y - 1) * w + x]).max(floor);
+                let b = luminance(&l[y * w + x]).max(floor);
+                let change = (b / a).ln();
+                if change > threshold {
+                    up += 1;
+                } else if change < -threshold {
+                    down += 1;
+                }
+            }
+            2 * up.max(down) > w
+        })
+        .map(|y| y as u32)
+        .collect()
+}
+
+#[test]
+fn straight_steps_are_found_and_nothing_else() {
+    use bevy::math::UVec2;
+    let size = UVec2::new(64, 32);
+    let image = |f: &dyn Fn(usize, usize) -> f32| -> Vec<[f32; 3]> {
+        (0..32 * 64)
+            .map(|i| {
+                let v = f(i % 64, i / 64);
+                [v, v, v]
+            })
+            .collect()
+    };
+    // A smooth sky, brighter toward the horizon.
+    let sky = |_x: usize, y: usize| 1.0 + 0.02 * y as f32;
+    assert!(straight_horizontal_steps(&image(&sky), size).is_empty());
+    // A band twice as bright from row 12 down: its top edge.
+    let band = |x: usize, y: usize| sky(x, y) * if y >= 12 { 2.0 } else { 1.0 };
+    assert_eq!(straight_horizontal_steps(&image(&band), size), vec![12]);
+    // A band darker over two thirds of the width, from row 20: found.
+    let wide = |x: usize, y: usize| sky(x, y) * if y >= 20 && x < 43 { 0.5 } else { 1.0 };
+    assert_eq!(straight_horizontal_steps(&image(&wide), size), vec![20]);
+    // Over less than half the width, a cloud's flat base: not a straight step.
+    let base = |x: usize, y: usize| sky(x, y) * if y >= 20 && x < 30 { 0.5 } else { 1.0 };
+    assert!(straight_horizontal_steps(&image(&base), size).is_empty());
+    // Round clouds all over: edges in every row, none straight.
+    let heaps = |x: usize, y: usize| {
+        let (dx, dy) = ((x % 16) as f32 - 8.0, (y % 16) as f32 - 8.0);
+        sky(x, y) * if dx * dx + dy * dy < 30.0 { 3.0 } else { 1.0 }
+    };
+    assert!(straight_horizontal_steps(&image(&heaps), size).is_empty());
+    // The black below an empty scene's horizon counts.
+    let horizon = |x: usize, y: usize| if y >= 25 { 0.0 } else { sky(x, y) };
+    assert_eq!(straight_horizontal_steps(&image(&horizon), size), vec![25]);
+}

@@ -719,6 +719,7 @@ pub fn march_clouds(
             settings.light_steps,
             cos_sun,
             settings.light_steps_away_from_sun,
+            saturate(jitter),
         ),
         phase: eddington_phase(settings),
         sun_on: settings.sun_illuminance.iter().any(|&e| e > 0.0),
@@ -762,12 +763,17 @@ pub fn march_clouds(
 /// The light steps of a view ray's samples (before `light_steps_at`) for a ray at `cos_sun`
 /// (the cosine of its angle to the sun): all of `light_steps` within about 32° of the sun
 /// ([`TOWARD_SUN_COS`]), the share `away_share` (clamped to 0–1, NaN: 1) of them from 60° on
-/// ([`AWAY_FROM_SUN_COS`]), linear between, rounded up, at least 1 (0 for 0). An error in a
+/// ([`AWAY_FROM_SUN_COS`]), linear between, at least 1 (0 for 0). The share is rounded down
+/// after adding `jitter` (0–1, the ray's [`ray_start_jitter`](super::ray_start_jitter); 0.5 rounds to the nearest): an
+/// integer count that changed at fixed angles would draw rings around the sun where the light
+/// march's error jumps, and with the jitter the frames that the temporal accumulation averages
+/// take the counts on either side in proportion, so the mean count, and the light, changes
+/// continuously with the angle. An error in a
 /// sample's sun optical depth changes its light in proportion to the phase function toward the
 /// camera, which away from the sun is a small share of what it is near it: there the sky light
 /// and the diffuse light, which the optical depth changes far less, carry the sample, and fewer
 /// light steps cost the image little. Computed in f32 on both sides. WGSL twin: `ray_light_steps`.
-pub fn ray_light_steps(light_steps: u32, cos_sun: f64, away_share: f64) -> u32 {
+pub fn ray_light_steps(light_steps: u32, cos_sun: f64, away_share: f64, jitter: f64) -> u32 {
     let away = away_from_sun_share(away_share);
     let toward = ((cos_sun as f32 - AWAY_FROM_SUN_COS as f32)
         / (TOWARD_SUN_COS as f32 - AWAY_FROM_SUN_COS as f32))
@@ -776,7 +782,7 @@ pub fn ray_light_steps(light_steps: u32, cos_sun: f64, away_share: f64) -> u32 {
     if light_steps == 0 {
         return 0;
     }
-    ((light_steps as f32 * share).ceil() as u32).clamp(1, light_steps)
+    ((light_steps as f32 * share + jitter as f32).floor() as u32).clamp(1, light_steps)
 }
 
 /// [`MarchSettings::light_steps_away_from_sun`] as [`ray_light_steps`] reads it, in f32: clamped

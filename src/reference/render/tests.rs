@@ -509,18 +509,51 @@ fn phase_and_jitter_stay_in_range() {
 /// image is the same, away from it the ray's samples are lit with fewer steps.
 #[test]
 fn rays_away_from_the_sun_take_fewer_light_steps() {
-    assert_eq!(ray_light_steps(14, 1.0, 0.5), 14);
-    assert_eq!(ray_light_steps(14, TOWARD_SUN_COS, 0.5), 14);
-    assert_eq!(ray_light_steps(14, AWAY_FROM_SUN_COS, 0.5), 7);
-    assert_eq!(ray_light_steps(14, -1.0, 0.5), 7);
-    // Halfway between: three quarters of 14, rounded up.
+    assert_eq!(ray_light_steps(14, 1.0, 0.5, 0.5), 14);
+    assert_eq!(ray_light_steps(14, TOWARD_SUN_COS, 0.5, 0.5), 14);
+    assert_eq!(ray_light_steps(14, AWAY_FROM_SUN_COS, 0.5, 0.5), 7);
+    assert_eq!(ray_light_steps(14, -1.0, 0.5, 0.5), 7);
+    // Halfway between: three quarters of 14 (10.5), rounded after adding the jitter.
     let between = 0.5 * (TOWARD_SUN_COS + AWAY_FROM_SUN_COS);
-    assert_eq!(ray_light_steps(14, between, 0.5), 11);
-    assert_eq!(ray_light_steps(14, -1.0, 0.0), 1);
-    assert_eq!(ray_light_steps(14, -1.0, 1.0), 14);
-    assert_eq!(ray_light_steps(14, -1.0, f64::NAN), 14);
-    assert_eq!(ray_light_steps(14, -1.0, 7.0), 14);
-    assert_eq!(ray_light_steps(0, -1.0, 0.5), 0);
+    assert_eq!(ray_light_steps(14, between, 0.5, 0.25), 10);
+    assert_eq!(ray_light_steps(14, between, 0.5, 0.75), 11);
+    assert_eq!(ray_light_steps(14, -1.0, 0.0, 0.5), 1);
+    assert_eq!(ray_light_steps(14, -1.0, 1.0, 0.99), 14);
+    assert_eq!(ray_light_steps(14, -1.0, f64::NAN, 0.5), 14);
+    assert_eq!(ray_light_steps(14, -1.0, 7.0, 0.5), 14);
+    assert_eq!(ray_light_steps(0, -1.0, 0.5, 0.5), 0);
+    // Averaged over the jitter the count follows the angle without a jump: from one angle to
+    // the next, 1/200 of the way from 60° to 32° from the sun, the mean moves by no more than
+    // the share's own change (7/200 of a step, 0.035), where the count alone jumps by a step.
+    let mean_steps = |cos_sun: f64| {
+        (0..64)
+            .map(|k| {
+                f64::from(ray_light_steps(
+                    14,
+                    cos_sun,
+                    0.5,
+                    (f64::from(k) + 0.5) / 64.0,
+                ))
+            })
+            .sum::<f64>()
+            / 64.0
+    };
+    let angles: Vec<f64> = (0..=200)
+        .map(|i| AWAY_FROM_SUN_COS + (TOWARD_SUN_COS - AWAY_FROM_SUN_COS) * f64::from(i) / 200.0)
+        .collect();
+    for pair in angles.windows(2) {
+        let jump = (mean_steps(pair[1]) - mean_steps(pair[0])).abs();
+        assert!(
+            jump <= 0.05,
+            "mean light steps jump by {jump} at cos {}",
+            pair[1]
+        );
+        let (a, b) = (
+            ray_light_steps(14, pair[0], 0.5, 0.5),
+            ray_light_steps(14, pair[1], 0.5, 0.5),
+        );
+        assert!(a.abs_diff(b) <= 1);
+    }
 
     let layers = [cumulus(0.6)];
     let march = |direction: [f64; 3], away: f64| {

@@ -366,14 +366,15 @@ fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32, clear_from: f32) -
 
 // The light steps of a view ray's samples (before `light_steps_at`) at `cos_sun`: all of
 // light_steps within TOWARD_SUN_COS, the share `away_share` (0-1, clamped on the CPU) from
-// AWAY_FROM_SUN_COS on, linear between, rounded up, at least 1 (0 for 0). Rust: `ray_light_steps`.
-fn ray_light_steps(light_steps: u32, cos_sun: f32, away_share: f32) -> u32 {
+// AWAY_FROM_SUN_COS on, linear between, rounded down after adding the ray's jitter (0-1) so the
+// accumulated frames change smoothly with the angle, at least 1 (0 for 0). Rust: `ray_light_steps`.
+fn ray_light_steps(light_steps: u32, cos_sun: f32, away_share: f32, jitter: f32) -> u32 {
     let toward = saturate((cos_sun - AWAY_FROM_SUN_COS) / (TOWARD_SUN_COS - AWAY_FROM_SUN_COS));
     let share = away_share + (1.0 - away_share) * toward;
     if light_steps == 0u {
         return 0u;
     }
-    return clamp(u32(ceil(f32(light_steps) * share)), 1u, light_steps);
+    return clamp(u32(floor(f32(light_steps) * share + jitter)), 1u, light_steps);
 }
 
 // The light steps of a sample from the view ray's transmittance and cut-off transmittance
@@ -601,7 +602,7 @@ fn march_clouds(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter:
         direction,
         vec2<f32>(dot(direction, axes.x), dot(direction, axes.z)),
         cos_sun,
-        ray_light_steps(clouds.light_steps, cos_sun, clouds.light_steps_away_from_sun),
+        ray_light_steps(clouds.light_steps, cos_sun, clouds.light_steps_away_from_sun, saturate(jitter)),
         any(sun > vec3<f32>(0.0)),
         saturate(jitter),
         0.0,
