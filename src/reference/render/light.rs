@@ -304,7 +304,8 @@ pub const SHADOW_MAP_NEAR_STEPS: u32 = 2;
 ///
 /// Step boundaries lie at `D (k / n)²`: short steps near the point, where the self-shadowing
 /// detail is, long ones far away. Each step samples the point `offset` (0–1) of the way through
-/// it; the march uses [`LIGHT_SAMPLE_OFFSET`], the midpoints, whatever the view ray's jitter. A
+/// it; the march uses [`LIGHT_SAMPLE_OFFSET`], the midpoints, whatever the view ray's jitter,
+/// which only rounds the step count (`jitter`, [`light_step_count`]). A
 /// homogeneous layer is integrated exactly whatever the offset. Altitudes along the light ray come from [`altitude_along_ray`] relative to
 /// the point. The footprint of a light sample is at least its step length, so long steps read
 /// coarse mips. Only the shells that hold the point are marched: the layers wholly above it
@@ -322,6 +323,7 @@ pub fn sun_optical_depth(
     max_distance_m: f64,
     steps: u32,
     offset: f64,
+    jitter: f64,
 ) -> f64 {
     let radius = settings.planet_radius_m;
     let sun = settings.sun_direction;
@@ -336,6 +338,7 @@ pub fn sun_optical_depth(
         distance,
         footprint_m,
         settings.light_steps_per_footprint,
+        jitter,
     );
     if steps == 0 || distance == 0.0 {
         return 0.0;
@@ -442,15 +445,24 @@ pub const LIGHT_SAMPLE_OFFSET: f64 = 0.5;
 pub const LIGHT_STEP_SPAN_M: f64 = 2_000.0;
 
 /// Steps of a light march `distance_m` long from a sample whose footprint is `footprint_m`:
-/// `steps` over [`LIGHT_STEP_SPAN_M`] or less, and in proportion beyond (rounded), but those
-/// extra steps no more than `per_footprint` per footprint
-/// ([`MarchSettings::light_steps_per_footprint`]; not a positive number, or a footprint of 0:
-/// no limit); at most [`MAX_LIGHT_STEPS`]. WGSL twin: `light_step_count` (which takes
-/// `per_footprint` from its uniforms, as f32).
-pub fn light_step_count(steps: u32, distance_m: f64, footprint_m: f64, per_footprint: f64) -> u32 {
-    let mut scaled = (f64::from(steps) * distance_m / LIGHT_STEP_SPAN_M + 0.5).floor();
+/// `steps` over [`LIGHT_STEP_SPAN_M`] or less, and in proportion beyond, but those extra steps
+/// no more than `per_footprint` per footprint ([`MarchSettings::light_steps_per_footprint`]; not
+/// a positive number, or a footprint of 0: no limit); at most [`MAX_LIGHT_STEPS`]. Both counts
+/// are rounded down after adding `jitter` (0–1, the view ray's; 0.5 rounds to the nearest): a
+/// count rounded at fixed lengths changes at fixed altitudes in a layer under a low sun and drew
+/// bands there, and with the jitter the accumulated frames take the counts on either side in
+/// proportion. WGSL twin: `light_step_count` (which takes `per_footprint` from its uniforms, as
+/// f32).
+pub fn light_step_count(
+    steps: u32,
+    distance_m: f64,
+    footprint_m: f64,
+    per_footprint: f64,
+    jitter: f64,
+) -> u32 {
+    let mut scaled = (f64::from(steps) * distance_m / LIGHT_STEP_SPAN_M + jitter).floor();
     if per_footprint > 0.0 && per_footprint.is_finite() && footprint_m > 0.0 {
-        scaled = scaled.min((per_footprint * distance_m / footprint_m).floor());
+        scaled = scaled.min((per_footprint * distance_m / footprint_m + jitter).floor());
     }
     // NaN (and negatives) add no steps.
     let scaled = if scaled >= 0.0 {

@@ -500,6 +500,7 @@ impl Ray<'_> {
                     max_distance,
                     steps,
                     LIGHT_SAMPLE_OFFSET,
+                    self.jitter,
                 )
             };
             // A far sample marches only the first texels toward the sun and reads the rest of

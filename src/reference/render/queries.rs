@@ -57,6 +57,7 @@ pub fn transmittance_to_sun(
         f64::INFINITY,
         settings.light_steps,
         0.5,
+        0.5,
     );
     if optical_depth < 0.0 {
         return 0.0;

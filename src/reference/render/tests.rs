@@ -605,25 +605,62 @@ fn rays_away_from_the_sun_take_fewer_light_steps() {
 #[test]
 fn a_low_suns_light_march_converges_over_its_offsets() {
     let none = f64::INFINITY;
-    assert_eq!(light_step_count(8, 1_000.0, 0.0, none), 8);
-    assert_eq!(light_step_count(8, LIGHT_STEP_SPAN_M, 0.0, none), 8);
-    assert_eq!(light_step_count(8, 7.0 * LIGHT_STEP_SPAN_M, 0.0, none), 56);
-    assert_eq!(light_step_count(8, 1e12, 0.0, none), MAX_LIGHT_STEPS);
-    assert_eq!(light_step_count(0, 1e4, 0.0, none), 0);
-    assert_eq!(light_step_count(8, f64::NAN, 0.0, none), 8);
-    assert_eq!(light_step_count(500, 1.0, 0.0, none), MAX_LIGHT_STEPS);
-    // One extra step per 500 m footprint over 14 km: 28, not 56; never below 8.
-    assert_eq!(light_step_count(8, 7.0 * LIGHT_STEP_SPAN_M, 500.0, 1.0), 28);
+    assert_eq!(light_step_count(8, 1_000.0, 0.0, none, 0.5), 8);
+    assert_eq!(light_step_count(8, LIGHT_STEP_SPAN_M, 0.0, none, 0.5), 8);
     assert_eq!(
-        light_step_count(8, 7.0 * LIGHT_STEP_SPAN_M, 5_000.0, 1.0),
+        light_step_count(8, 7.0 * LIGHT_STEP_SPAN_M, 0.0, none, 0.5),
+        56
+    );
+    assert_eq!(light_step_count(8, 1e12, 0.0, none, 0.5), MAX_LIGHT_STEPS);
+    assert_eq!(light_step_count(0, 1e4, 0.0, none, 0.5), 0);
+    assert_eq!(light_step_count(8, f64::NAN, 0.0, none, 0.5), 8);
+    assert_eq!(light_step_count(500, 1.0, 0.0, none, 0.5), MAX_LIGHT_STEPS);
+    // One extra step per 500 m footprint over 14 km: 28, not 56; never below 8.
+    assert_eq!(
+        light_step_count(8, 7.0 * LIGHT_STEP_SPAN_M, 500.0, 1.0, 0.5),
+        28
+    );
+    assert_eq!(
+        light_step_count(8, 7.0 * LIGHT_STEP_SPAN_M, 5_000.0, 1.0, 0.5),
         8
     );
-    assert_eq!(light_step_count(8, 7.0 * LIGHT_STEP_SPAN_M, 0.0, 1.0), 56);
+    assert_eq!(
+        light_step_count(8, 7.0 * LIGHT_STEP_SPAN_M, 0.0, 1.0, 0.5),
+        56
+    );
     for no_limit in [0.0, -1.0, f64::NAN, none] {
         assert_eq!(
-            light_step_count(8, 7.0 * LIGHT_STEP_SPAN_M, 500.0, no_limit),
+            light_step_count(8, 7.0 * LIGHT_STEP_SPAN_M, 500.0, no_limit, 0.5),
             56
         );
+    }
+    // Averaged over the jitter the count grows with the path without a jump: from one length
+    // to the next, 10 m apart, the mean moves by about the path's own share (8 steps per 2 km:
+    // 0.04), where the count alone jumps by a step every 250 m. Likewise with the footprint
+    // limit at 100 m: a step per 100 m.
+    let mean_steps = |distance: f64, per_footprint: f64| {
+        (0..64)
+            .map(|k| {
+                let jitter = (f64::from(k) + 0.5) / 64.0;
+                f64::from(light_step_count(8, distance, 100.0, per_footprint, jitter))
+            })
+            .sum::<f64>()
+            / 64.0
+    };
+    for per_footprint in [none, 1.0] {
+        let share = if per_footprint == none {
+            8.0 / LIGHT_STEP_SPAN_M
+        } else {
+            0.01
+        };
+        for i in 0..600 {
+            let d = 2_000.0 + 10.0 * f64::from(i);
+            let jump = mean_steps(d + 10.0, per_footprint) - mean_steps(d, per_footprint);
+            assert!(
+                (0.0..=10.0 * share + 1.0 / 64.0).contains(&jump),
+                "mean light steps jump by {jump} from {d} m"
+            );
+        }
     }
 
     // Cumulus 1.5–3 km under a sun 4° high: light paths up to 21 km through the layer, from
@@ -667,6 +704,7 @@ fn a_low_suns_light_march_converges_over_its_offsets() {
                 f64::INFINITY,
                 steps,
                 offset,
+                0.5,
             )
         };
         let converged = (-depth(MAX_LIGHT_STEPS, 0.5, 0.0, none)).exp();
@@ -684,8 +722,8 @@ fn a_low_suns_light_march_converges_over_its_offsets() {
         limited_error += (limited - far).abs();
         let mu = point_mu_sun(&settings, 0.0, UP, position, altitude);
         let distance = light_march_distance(&layers, settings.planet_radius_m, altitude, mu);
-        limited_steps += f64::from(light_step_count(24, distance, footprint, 1.0));
-        full_steps += f64::from(light_step_count(24, distance, footprint, none));
+        limited_steps += f64::from(light_step_count(24, distance, footprint, 1.0, 0.5));
+        full_steps += f64::from(light_step_count(24, distance, footprint, none, 0.5));
         count += converged;
     }
     let (error, mean_error) = (midpoint_error / count, mean_error / count);

@@ -470,12 +470,12 @@ fn light_sample(ray: ptr<function, MarchRay>, sample: QueuedSample) -> SampleSou
         let uv = shadow_map_uv(end);
         if t >= clouds.sun_from_shadow_map_m && shadow_map_covers(uv) {
             let end_altitude = altitude_along_ray(altitude, mu_sun, near, clouds.planet_radius_m);
-            optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, near, min(light_steps, SHADOW_MAP_NEAR_STEPS), LIGHT_SAMPLE_OFFSET);
+            optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, near, min(light_steps, SHADOW_MAP_NEAR_STEPS), LIGHT_SAMPLE_OFFSET, (*ray).jitter);
             if optical_depth >= 0.0 {
                 optical_depth += map_sun_optical_depth(uv, end_altitude);
             }
         } else {
-            optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, FAR_AWAY, light_steps, LIGHT_SAMPLE_OFFSET);
+            optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, FAR_AWAY, light_steps, LIGHT_SAMPLE_OFFSET, (*ray).jitter);
             // Then the layers above the sample's own (the map holds them already).
             if optical_depth >= 0.0 {
                 above = higher_layers_optical_depth((*ray).up, position, altitude, mu_sun, footprint, light_steps);

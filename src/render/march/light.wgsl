@@ -153,14 +153,15 @@ fn point_mu_sun(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f32) -
 }
 
 // Steps of a light march distance_m long from a sample whose footprint is footprint_m:
-// light_steps over LIGHT_STEP_SPAN_M or less, in proportion beyond (rounded), but those extra
-// steps no more than clouds.light_steps_per_footprint per footprint (0: no limit); at most
-// MAX_LIGHT_STEPS. Rust: `light_step_count`.
-fn light_step_count(light_steps: u32, distance_m: f32, footprint_m: f32) -> u32 {
-    var scaled = floor(f32(light_steps) * distance_m / LIGHT_STEP_SPAN_M + 0.5);
+// light_steps over LIGHT_STEP_SPAN_M or less, in proportion beyond, but those extra steps no
+// more than clouds.light_steps_per_footprint per footprint (0: no limit), each count rounded
+// down after adding the view ray's jitter (0-1); at most MAX_LIGHT_STEPS. Rust:
+// `light_step_count`.
+fn light_step_count(light_steps: u32, distance_m: f32, footprint_m: f32, jitter: f32) -> u32 {
+    var scaled = floor(f32(light_steps) * distance_m / LIGHT_STEP_SPAN_M + jitter);
     let per_footprint = clouds.light_steps_per_footprint;
     if per_footprint > 0.0 && footprint_m > 0.0 {
-        scaled = min(scaled, floor(per_footprint * distance_m / footprint_m));
+        scaled = min(scaled, floor(per_footprint * distance_m / footprint_m + jitter));
     }
     // NaN (and negatives) add no steps.
     let extra = select(0u, u32(min(scaled, f32(MAX_LIGHT_STEPS))), scaled >= 0.0);
@@ -172,7 +173,7 @@ fn light_step_count(light_steps: u32, distance_m: f32, footprint_m: f32) -> u32 
 // `offset` (0-1; the march passes LIGHT_SAMPLE_OFFSET) of the way through; negative when the
 // ground blocks the sun. Only the shells that hold the point: the march adds
 // `higher_layers_optical_depth` to a full light march. Rust: `sun_optical_depth`.
-fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f32, footprint_m: f32, max_distance_m: f32, light_steps: u32, offset: f32) -> f32 {
+fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f32, footprint_m: f32, max_distance_m: f32, light_steps: u32, offset: f32, jitter: f32) -> f32 {
     let radius = clouds.planet_radius_m;
     let sun = clouds.sun_direction.xyz;
     let mu_sun = point_mu_sun(h, up, position_m, altitude_m);
@@ -181,7 +182,7 @@ fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f
         return -1.0;
     }
     let distance = min(full_distance, max_distance_m);
-    let steps = light_step_count(light_steps, distance, footprint_m);
+    let steps = light_step_count(light_steps, distance, footprint_m, jitter);
     if steps == 0u || distance == 0.0 {
         return 0.0;
     }
