@@ -153,15 +153,15 @@ fn point_mu_sun(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f32) -
 }
 
 // Steps of a light march distance_m long from a sample whose footprint is footprint_m:
-// light_steps over LIGHT_STEP_SPAN_M or less, in proportion beyond, but those extra steps no
-// more than clouds.light_steps_per_footprint per footprint (0: no limit), each count rounded
-// down after adding the view ray's jitter (0-1); at most MAX_LIGHT_STEPS. Rust:
-// `light_step_count`.
+// light_steps over LIGHT_STEP_SPAN_M or less, in proportion beyond (rounded down after adding
+// the view ray's jitter, 0-1), but those extra steps no more than
+// clouds.light_steps_per_footprint per footprint (0: no limit; rounded down); at most
+// MAX_LIGHT_STEPS. Rust: `light_step_count`.
 fn light_step_count(light_steps: u32, distance_m: f32, footprint_m: f32, jitter: f32) -> u32 {
     var scaled = floor(f32(light_steps) * distance_m / LIGHT_STEP_SPAN_M + jitter);
     let per_footprint = clouds.light_steps_per_footprint;
     if per_footprint > 0.0 && footprint_m > 0.0 {
-        scaled = min(scaled, floor(per_footprint * distance_m / footprint_m + jitter));
+        scaled = min(scaled, floor(per_footprint * distance_m / footprint_m));
     }
     // NaN (and negatives) add no steps.
     let extra = select(0u, u32(min(scaled, f32(MAX_LIGHT_STEPS))), scaled >= 0.0);
