@@ -280,7 +280,7 @@ mod tests {
         // noise is clear.
         let closing = 0.5 * (OVERCAST_COVERAGE + 1.0);
         assert_eq!(growth_coverage(closing, 0.0), local_coverage(closing, 0.0));
-        assert!(growth_coverage(closing, 0.0) > 0.0);
+        assert!(growth_coverage(closing, 0.0) > 0.4);
         // A grid finer than the noise reads the column under the texel's first corner.
         let fine = LayerGrowth {
             size: [64, 64],

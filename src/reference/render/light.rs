@@ -296,6 +296,23 @@ pub const SHADOW_MAP_NEAR_TEXELS: f64 = 4.0;
 /// WGSL twin: `SHADOW_MAP_NEAR_STEPS`.
 pub const SHADOW_MAP_NEAR_STEPS: u32 = 2;
 
+/// The point `s` metres toward the sun from `position_m` (at `altitude_m`, the sun at `mu_sun`
+/// there): its coordinates along the horizontal `axes` and its altitude. The light marches'
+/// samples ([`sun_optical_depth`], [`higher_layers_optical_depth`]). WGSL twin:
+/// `sun_ray_point`.
+fn sun_ray_point(
+    settings: &MarchSettings,
+    axes: [[f64; 3]; 2],
+    position_m: [f64; 3],
+    altitude_m: f64,
+    mu_sun: f64,
+    s: f64,
+) -> ([f64; 2], f64) {
+    let point = add(position_m, scale(settings.sun_direction, s));
+    let altitude = altitude_along_ray(altitude_m, mu_sun, s, settings.planet_radius_m);
+    ([dot(point, axes[0]), dot(point, axes[1])], altitude)
+}
+
 /// Optical depth toward the sun from the point `position_m` (relative to a camera at
 /// `camera_altitude_m` with local vertical `up`) at `altitude_m`, by a light march of
 /// `steps` steps (at most [`MAX_LIGHT_STEPS`]; the march uses [`MarchSettings::light_steps`])
@@ -326,7 +343,6 @@ pub fn sun_optical_depth(
     jitter: f64,
 ) -> f64 {
     let radius = settings.planet_radius_m;
-    let sun = settings.sun_direction;
     let mu_sun = point_mu_sun(settings, camera_altitude_m, up, position_m, altitude_m);
     let distance = light_march_distance(layers, radius, altitude_m, mu_sun);
     if distance < 0.0 {
@@ -351,9 +367,8 @@ pub fn sun_optical_depth(
         let s1 = distance * (f64::from(k + 1) / n).powi(2);
         let ds = s1 - s0;
         let s = s0 + offset * ds;
-        let point = add(position_m, scale(sun, s));
-        let altitude = altitude_along_ray(altitude_m, mu_sun, s, radius);
-        let horizontal = [dot(point, axes[0]), dot(point, axes[1])];
+        let (horizontal, altitude) =
+            sun_ray_point(settings, axes, position_m, altitude_m, mu_sun, s);
         let extinction = total_extinction(
             textures,
             layers,
@@ -368,8 +383,9 @@ pub fn sun_optical_depth(
 }
 
 /// Light-march steps through each layer above a sample's own: one per this many of the
-/// sample's light steps ([`MarchSettings::light_steps`] as the march gives them), rounded up. A layer seen from below casts a shade whose
-/// detail the sample's own light march does not need. WGSL twin: `HIGHER_LAYER_STEP_DIVISOR`.
+/// sample's light steps ([`MarchSettings::light_steps`] as the march gives them), rounded up.
+/// A layer seen from below casts a shade whose detail the sample's own light march does not
+/// need. WGSL twin: `HIGHER_LAYER_STEP_DIVISOR`.
 pub const HIGHER_LAYER_STEP_DIVISOR: u32 = 4;
 
 /// Optical depth toward the sun, beyond the sample's own layers, through every active layer
@@ -396,7 +412,6 @@ pub fn higher_layers_optical_depth(
         return 0.0;
     }
     let radius = settings.planet_radius_m;
-    let sun = settings.sun_direction;
     let axes = horizontal_axes(up);
     let n = f64::from(steps);
     let mut optical_depth = 0.0;
@@ -413,9 +428,8 @@ pub fn higher_layers_optical_depth(
         let ds = (leave - enter) / n;
         for k in 0..steps {
             let s = enter + (f64::from(k) + 0.5) * ds;
-            let point = add(position_m, scale(sun, s));
-            let altitude = altitude_along_ray(altitude_m, mu_sun, s, radius);
-            let horizontal = [dot(point, axes[0]), dot(point, axes[1])];
+            let (horizontal, altitude) =
+                sun_ray_point(settings, axes, position_m, altitude_m, mu_sun, s);
             optical_depth += layer_density(
                 textures,
                 layer,
@@ -578,32 +592,24 @@ pub fn sky_light_under_layers(settings: &MarchSettings, layers: &mut [MarchLayer
     let sun = settings.sun_illuminance.map(|e| e * mu0);
     let sky = settings.ambient_top;
     let open_flux: [f64; 3] = std::array::from_fn(|c| sun[c] + std::f64::consts::PI * sky[c]);
-    let sheets: Vec<(f64, f64, f64, f64)> = layers
+    // Each active layer as (base, top, coverage, vertical optical depth), the highest top first.
+    let mut sheets: Vec<[f64; 4]> = layers
         .iter()
         .filter(|layer| layer_is_active(layer))
         .map(|layer| {
             let tau = layer.extinction * (layer.top_m - layer.base_m);
-            (
+            [
                 layer.base_m,
                 layer.top_m,
                 layer.coverage.clamp(0.0, 1.0),
                 tau,
-            )
+            ]
         })
         .collect();
+    sheets.sort_by(|a, b| b[1].total_cmp(&a[1]));
     for layer in layers.iter_mut() {
-        let mut above: Vec<_> = sheets
-            .iter()
-            .filter(|(base, ..)| *base >= layer.top_m)
-            .collect();
-        if above.is_empty() {
-            layer.sky_light_top = [1.0; 3];
-            layer.sky_light_bottom = [1.0; 3];
-            continue;
-        }
-        above.sort_by(|a, b| b.1.total_cmp(&a.1));
         let (mut radiance, mut direct) = (sky, sun);
-        for &&(_, _, coverage, tau) in &above {
+        for &[_, _, coverage, tau] in sheets.iter().filter(|sheet| sheet[0] >= layer.top_m) {
             let through = crate::reference::haze::cloud_diffuse_transmittance(tau);
             let beam = (-scaled * tau / slant).exp();
             let scattered = (through - beam).max(0.0);
@@ -614,6 +620,7 @@ pub fn sky_light_under_layers(settings: &MarchSettings, layers: &mut [MarchLayer
                 direct[c] *= 1.0 - coverage * (1.0 - beam);
             }
         }
+        // With nothing above, both ratios are exactly 1.
         let ratio = |value: f64, open: f64| if open > 0.0 { value / open } else { 1.0 };
         layer.sky_light_top = std::array::from_fn(|c| ratio(radiance[c], sky[c]));
         layer.sky_light_bottom = std::array::from_fn(|c| {

@@ -314,8 +314,8 @@ fn cpu_queries_answer_in_cloud_and_sunlight() {
 
 /// The sky light on a cloud under a separate deck is the light the deck lets through: the
 /// irradiance under it (the bottom factor) is the deck's diffuse transmittance, a thicker deck
-/// lets through less, a deck with no coverage changes nothing, and the low cloud, marched, is
-/// darker under the deck than under an open sky.
+/// lets through less, a deck with no coverage changes nothing, and the low cloud, marched,
+/// dims by about that transmittance.
 #[test]
 fn a_low_cloud_under_a_deck_takes_the_light_the_deck_lets_through() {
     let low = slab(0.01);
@@ -347,9 +347,10 @@ fn a_low_cloud_under_a_deck_takes_the_light_the_deck_lets_through() {
             );
         }
     }
+    // (Those values are the two-stream diffuse transmittance; here only its order.)
     let thin = lit(&deck(0.002, 1.0))[0].sky_light_bottom[1];
     let thick = lit(&deck(0.033, 1.0))[0].sky_light_bottom[1];
-    assert!(thick < 0.5 * thin, "{thick} vs {thin}");
+    assert!(thick < thin, "{thick} vs {thin}");
     assert_eq!(lit(&deck(0.033, 0.0))[0].sky_light_top, [1.0; 3]);
     // Seen from under both, looking up into the low cloud's base.
     let camera = MarchSettings {
@@ -361,11 +362,15 @@ fn a_low_cloud_under_a_deck_takes_the_light_the_deck_lets_through() {
     sky_light_under_layers(&camera, &mut stack);
     let shaded = march_up(&camera, &stack);
     let luminance = |r: &MarchResult| r.radiance.iter().sum::<f64>();
+    // All the light on the low cloud came through the deck, so it dims by about the deck's
+    // diffuse transmittance: within a factor of two of it either way (the light arrives
+    // diffuse instead of as a 30° beam, which the cloud scatters down differently). Without
+    // the sky light under the deck it stays near the open sky's; with none it goes black.
+    let through = crate::reference::haze::mean_diffuse_transmittance(&stack[1..]);
+    let dimmed = luminance(&shaded) / luminance(&open);
     assert!(
-        luminance(&shaded) < 0.5 * luminance(&open),
-        "under the deck {} vs open {}",
-        luminance(&shaded),
-        luminance(&open)
+        (0.5 * through..=2.0 * through).contains(&dimmed),
+        "under the deck {dimmed} of the open sky's light, the deck passes {through}"
     );
 }
 

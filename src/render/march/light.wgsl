@@ -12,8 +12,8 @@
 #import bevy_cloudscape::cloud_parameters::{cloud_layers, clouds}
 #import bevy_cloudscape::cloud_textures::blue_noise
 #import bevy_cloudscape::cloud_geometry::{
-    altitude_along_ray, cloud_layer_count, horizontal_axes, layer_is_active, saturate,
-    wrap_texel,
+    HorizontalAxes, altitude_along_ray, cloud_layer_count, horizontal_axes, layer_is_active,
+    saturate, wrap_texel,
 }
 #import bevy_cloudscape::cloud_density::{layer_density, total_extinction}
 
@@ -168,14 +168,20 @@ fn light_step_count(light_steps: u32, distance_m: f32, footprint_m: f32, jitter:
     return min(max(light_steps, extra), MAX_LIGHT_STEPS);
 }
 
+// The point s metres toward the sun from `position_m` (at `altitude_m`, the sun at `mu_sun`
+// there): xy its coordinates along the horizontal `axes`, z its altitude. Rust: `sun_ray_point`.
+fn sun_ray_point(axes: HorizontalAxes, position_m: vec3<f32>, altitude_m: f32, mu_sun: f32, s: f32) -> vec3<f32> {
+    let point = position_m + clouds.sun_direction.xyz * s;
+    let altitude = altitude_along_ray(altitude_m, mu_sun, s, clouds.planet_radius_m);
+    return vec3<f32>(dot(point, axes.x), dot(point, axes.z), altitude);
+}
+
 // Optical depth toward the sun from `position_m` (relative to the camera at altitude h with
 // vertical up) at `altitude_m`: light_steps steps with boundaries at D (k/n)^2, each sampled
 // `offset` (0-1; the march passes LIGHT_SAMPLE_OFFSET) of the way through; negative when the
 // ground blocks the sun. Only the shells that hold the point: the march adds
 // `higher_layers_optical_depth` to a full light march. Rust: `sun_optical_depth`.
 fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f32, footprint_m: f32, max_distance_m: f32, light_steps: u32, offset: f32, jitter: f32) -> f32 {
-    let radius = clouds.planet_radius_m;
-    let sun = clouds.sun_direction.xyz;
     let mu_sun = point_mu_sun(h, up, position_m, altitude_m);
     let full_distance = light_march_distance(altitude_m, mu_sun);
     if full_distance < 0.0 {
@@ -196,10 +202,8 @@ fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f
         let s1 = distance * u1 * u1;
         let ds = s1 - s0;
         let s = s0 + offset * ds;
-        let point = position_m + sun * s;
-        let altitude = altitude_along_ray(altitude_m, mu_sun, s, radius);
-        let horizontal = vec2<f32>(dot(point, axes.x), dot(point, axes.z));
-        optical_depth += total_extinction(horizontal, altitude, max(footprint_m, ds), true) * ds;
+        let point = sun_ray_point(axes, position_m, altitude_m, mu_sun, s);
+        optical_depth += total_extinction(point.xy, point.z, max(footprint_m, ds), true) * ds;
     }
     return optical_depth;
 }
@@ -213,7 +217,6 @@ fn higher_layers_optical_depth(up: vec3<f32>, position_m: vec3<f32>, altitude_m:
         return 0.0;
     }
     let radius = clouds.planet_radius_m;
-    let sun = clouds.sun_direction.xyz;
     let axes = horizontal_axes(up);
     let n = f32(steps);
     var optical_depth = 0.0;
@@ -232,10 +235,8 @@ fn higher_layers_optical_depth(up: vec3<f32>, position_m: vec3<f32>, altitude_m:
         let ds = (leave - enter) / n;
         for (var k = 0u; k < steps; k++) {
             let s = enter + (f32(k) + 0.5) * ds;
-            let point = position_m + sun * s;
-            let altitude = altitude_along_ray(altitude_m, mu_sun, s, radius);
-            let horizontal = vec2<f32>(dot(point, axes.x), dot(point, axes.z));
-            optical_depth += layer_density(i, horizontal, altitude, max(footprint_m, ds), true) * ds;
+            let point = sun_ray_point(axes, position_m, altitude_m, mu_sun, s);
+            optical_depth += layer_density(i, point.xy, point.z, max(footprint_m, ds), true) * ds;
         }
     }
     return optical_depth;
