@@ -149,9 +149,10 @@ pub struct SampleLights {
 /// medium (extinction `(1 − f) σt`) holds a diffuse radiance `I₀ + μ I₁` (μ the cosine of the
 /// direction of travel from the downward vertical), whose two-stream equations with Marshak's
 /// boundary conditions have a closed form in the column's optical depths above (`τa`) and below
-/// (`τb`) the sample; `τa` is at most the optical depth of the sun's path out times `μ₀`, since
-/// light reaches the sample through the nearest surface of its cloud (on a sunlit side, the
-/// side). For the sun (per unit illuminance `E`, `μ₀` the sun's cosine, `τs` the
+/// (`τb`) the sample; `τa` is at most the optical depth of the sun's path out through the
+/// sample's own layers times `μ₀`, since light reaches the sample through the nearest surface
+/// of its cloud (on a sunlit side, the side), and where that caps it, `τb` shrinks by the square
+/// root of the same ratio (a broken cloud's column below). For the sun (per unit illuminance `E`, `μ₀` the sun's cosine, `τs` the
 /// optical depth toward the sun, `e = e^(−(1 − f) τs)`, `k = 1/4π`):
 /// `I₁ = C₁ − 3μ₀ k e`, `I₀ = C₀ − (1 − g) C₁ τa − 3μ₀² k e`, with
 /// `C₁ = k (3μ₀² + 2μ₀ − e_T (3μ₀² − 2μ₀)) / (4/3 + (1 − g)(τa + τb))`, `e_T` the beam's scaled
@@ -198,12 +199,21 @@ pub fn sample_source(
     let g_star = phase.scaled_asymmetry;
     let one_minus_g = (1.0 - g_star) * (1.0 - f);
     // Light reaches a sample through the nearest surface of its cloud: where the sun's path out
-    // is shorter than the column above (a cloud's sunlit side), the sample is that deep.
+    // through its own layers is shorter than the column above (a cloud's sunlit side), the
+    // sample is that deep. The path then crosses less cloud than a full column would, and the
+    // cloud below the sample is as broken somewhere between not at all (a cloud's sunlit top
+    // over its body) and as much as the path (a wisp at its edge): the column below takes the
+    // geometric mean of the two, `τb √(fill)` with `fill` the capped over the full column above.
+    // The mean, not either end, is what brings broken cumulus closest to the path-traced
+    // truth (`validation/README.md`, "Cumulus against Mitsuba").
     let mut column = column;
     if let Some(depth) = lights.sun_optical_depth {
-        column.above = column
-            .above
-            .min(depth * lights.mu_sun.max(MIN_DIFFUSE_MU_SUN));
+        let own = (depth - lights.sun_above_depth).max(0.0);
+        let capped = own * lights.mu_sun.max(MIN_DIFFUSE_MU_SUN);
+        if column.above > capped {
+            column.below *= (capped / column.above).sqrt();
+            column.above = capped;
+        }
     }
     let transport = 4.0 / 3.0 + one_minus_g * (column.above + column.below);
     let mu = lights.mu_view;

@@ -64,7 +64,7 @@ struct SampleSource {
 fn sample_source(
     scattering: f32,
     column_above_in: f32,
-    column_below: f32,
+    column_below_in: f32,
     ambient: vec3<f32>,
     sky_light_top: vec3<f32>,
     sky_light_bottom: vec3<f32>,
@@ -89,9 +89,16 @@ fn sample_source(
     let g_star = clouds.scaled_asymmetry;
     let one_minus_g = (1.0 - g_star) * (1.0 - f);
     // Light reaches a sample through the nearest surface of its cloud (Rust: `sample_source`).
+    // The column below is then the geometric mean of the full one and the full one filled as
+    // much as the sun's path is (Rust: `sample_source`).
     var column_above = column_above_in;
+    var column_below = column_below_in;
     if sun_depth >= 0.0 {
-        column_above = min(column_above, sun_depth * max(mu_sun, MIN_DIFFUSE_MU_SUN));
+        let capped = max(sun_depth - sun_above_depth, 0.0) * max(mu_sun, MIN_DIFFUSE_MU_SUN);
+        if column_above > capped {
+            column_below *= sqrt(capped / column_above);
+            column_above = capped;
+        }
     }
     let transport = 4.0 / 3.0 + one_minus_g * (column_above + column_below);
     let k = 0.25 / PI;
