@@ -319,6 +319,21 @@ fn cumulus_base_to_top_ratio_matches_mitsuba() {
     );
 }
 
+/// Each scene's mean brightness within the base-to-top target (15 %) of Mitsuba's: a broken
+/// field's thin edges lit like the top of a solid deck (the full column below every sample)
+/// made the views from below and above a third too bright.
+#[test]
+fn cumulus_mean_brightness_matches_mitsuba() {
+    let (figures, report) = compare();
+    for (scene, &(_, ours, truth)) in scenes().iter().zip(&figures) {
+        assert!(
+            (ours / truth - 1.0).abs() <= RATIO_TARGET,
+            "{}: mean {ours:.4} against Mitsuba's {truth:.4}\n{report}",
+            scene.name
+        );
+    }
+}
+
 #[test]
 fn a_broken_mitsuba_image_names_the_file_and_row() {
     let error = mitsuba_image("no_such_scene").expect_err("a missing file");
