@@ -152,8 +152,8 @@ pub struct SampleLights {
 /// (`τb`) the sample; `τa` is at most the optical depth of the sun's path out through the
 /// sample's own layers times `μ₀`, since light reaches the sample through the nearest surface
 /// of its cloud (on a sunlit side, the side), and where that caps it, `τb` shrinks by the square
-/// root of the same ratio (a broken cloud's column below). For the sun (per unit illuminance `E`, `μ₀` the sun's cosine, `τs` the
-/// optical depth toward the sun, `e = e^(−(1 − f) τs)`, `k = 1/4π`):
+/// root of the same ratio (a broken cloud's column below). For the sun (per unit illuminance
+/// `E`, `μ₀` the sun's cosine, `τs` the optical depth toward the sun, `e = e^(−(1 − f) τs)`, `k = 1/4π`):
 /// `I₁ = C₁ − 3μ₀ k e`, `I₀ = C₀ − (1 − g) C₁ τa − 3μ₀² k e`, with
 /// `C₁ = k (3μ₀² + 2μ₀ − e_T (3μ₀² − 2μ₀)) / (4/3 + (1 − g)(τa + τb))`, `e_T` the beam's scaled
 /// transmittance through the whole column, and `C₀ = k (3μ₀² + 2μ₀) − 2C₁/3`. For the sky (the

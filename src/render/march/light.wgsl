@@ -88,9 +88,9 @@ fn sample_source(
     let f = clouds.forward_fraction;
     let g_star = clouds.scaled_asymmetry;
     let one_minus_g = (1.0 - g_star) * (1.0 - f);
-    // Light reaches a sample through the nearest surface of its cloud (Rust: `sample_source`).
-    // The column below is then the geometric mean of the full one and the full one filled as
-    // much as the sun's path is (Rust: `sample_source`).
+    // Light reaches a sample through the nearest surface of its cloud, and the column below is
+    // then the geometric mean of the full one and one filled as much as the sun's path (Rust:
+    // `sample_source`).
     var column_above = column_above_in;
     var column_below = column_below_in;
     if sun_depth >= 0.0 {

@@ -254,7 +254,14 @@ fn parse_image(file: &str, text: &str) -> Result<Vec<f64>, String> {
 }
 
 /// Each scene's relative RMSE of luminance against Mitsuba, the means of the twin and of
-/// Mitsuba, and a printable report.
+/// Mitsuba, and a printable report; computed once for the tests that read it.
+fn comparison() -> &'static (Vec<(f64, f64, f64)>, String) {
+    static COMPARISON: std::sync::OnceLock<(Vec<(f64, f64, f64)>, String)> =
+        std::sync::OnceLock::new();
+    COMPARISON.get_or_init(compare)
+}
+
+/// [`comparison`], marched anew.
 fn compare() -> (Vec<(f64, f64, f64)>, String) {
     let mut report = String::new();
     let mut figures = Vec::new();
@@ -306,7 +313,7 @@ fn compare() -> (Vec<(f64, f64, f64)>, String) {
 /// yet (`validation/README.md` has the figures).
 #[test]
 fn cumulus_base_to_top_ratio_matches_mitsuba() {
-    let (figures, report) = compare();
+    let (figures, report) = comparison();
     let ratio = (figures[0].1 / figures[1].1) / (figures[0].2 / figures[1].2);
     println!(
         "{report}base / top {:+.1} % from Mitsuba's",
@@ -324,8 +331,8 @@ fn cumulus_base_to_top_ratio_matches_mitsuba() {
 /// made the views from below and above a third too bright.
 #[test]
 fn cumulus_mean_brightness_matches_mitsuba() {
-    let (figures, report) = compare();
-    for (scene, &(_, ours, truth)) in scenes().iter().zip(&figures) {
+    let (figures, report) = comparison();
+    for (scene, &(_, ours, truth)) in scenes().iter().zip(figures) {
         assert!(
             (ours / truth - 1.0).abs() <= RATIO_TARGET,
             "{}: mean {ours:.4} against Mitsuba's {truth:.4}\n{report}",
