@@ -5,7 +5,12 @@
 //! cargo run --release --example bench -- [--width W] [--height H] [--frames N] [--out DIR] [--scene NAME] [--presets LIST] [--reference-steps N] [--no-jitter] [--effects-only] [--error-budget]
 //! cargo run --release --example bench -- --time-only [--gpu-spans] [--presets LIST] [--sizes WxH,...] [--layers N,...] [--set FIELD=VALUE] [--scene NAME] [--out DIR]
 //! cargo run --release --example bench -- --growth [--frames N] [--out DIR]
+//! cargo run --release --example bench -- --truth [--presets LIST] [--set FIELD=VALUE] [--out DIR]
 //! ```
+//!
+//! `--truth` marches each preset through the three cumulus scenes that Mitsuba 3 path-traced from
+//! the crate's own density field (`validation/mitsuba/`) on the CPU twin and writes its error
+//! against the truth to `truth.csv` (see `truth.rs`); the full run measures it too.
 //!
 //! `--growth` times one step of the cloud-growth automaton (`render::growth`) at 64 × 64 × 16,
 //! the seed's 100 × 100 × 10, 128 × 128 × 16 and 256 × 256 × 16 cells, into `growth.csv`.
@@ -35,6 +40,9 @@
 //!   (the crate's own run is in `docs/bench/`).
 //! - `images/SCENE_PRESET.png`: each render beside the reference, and a third panel with the
 //!   difference of their linear luminance, `|Δ| / mean(reference)`, white at 20 % and above.
+//! - `truth.csv`: `scene,preset,jitters,rel_rmse,mean_error`, each preset against the
+//!   path-traced truth (`--truth`); `performance.md` tabulates it with the base-to-top ratio, and
+//!   the plot puts each truth scene at the preset's median time ratio over the bench scenes.
 //! - `effects.csv`: `effect,scene,ms_with,ms_without,ratio`, the median whole-frame time with
 //!   and without each optional effect (the cloud shadow map at 256², haze, light shafts, rain,
 //!   fog, temporal accumulation, the weather map; see `measure_effects`), on the cumulus scene
@@ -57,6 +65,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 mod report;
+mod truth;
 
 use std::{
     path::PathBuf,
@@ -74,6 +83,7 @@ use common::scenes::{
     CloudRig, Scene, luminance, save_strip, showcase_scenes, small_recipe, sun_direction,
 };
 use report::{Row, performance_md, plot, to_csv};
+use truth::TruthRow;
 
 /// Speed against error of the presets (see the module docs).
 #[derive(clap::Parser)]
@@ -149,6 +159,11 @@ struct Args {
     /// `growth.csv`: `width,length,depth,cells,ms_per_step,ms_per_cover`).
     #[arg(long)]
     growth: bool,
+    /// Measure only each preset against the path-traced truth: the Mitsuba cumulus scenes of
+    /// `validation/mitsuba/`, marched by the CPU twin with the preset's knobs (`--set` too),
+    /// into `truth.csv` (the full run measures it too).
+    #[arg(long)]
+    truth: bool,
     /// Primary steps of the reference.
     #[arg(long, default_value_t = REFERENCE_STEPS,
           value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_PRIMARY_STEPS)))]
@@ -676,6 +691,7 @@ fn error_budget(scene: &Scene) {
 fn write_docs(
     args: &Args,
     rows: &[Row],
+    truth: &[TruthRow],
     effects: &str,
     times: Option<&str>,
     peer: Option<&str>,
@@ -686,7 +702,7 @@ fn write_docs(
     let images = dir.join("images");
     std::fs::create_dir_all(&images)
         .map_err(|e| format!("cannot create {}: {e}", images.display()))?;
-    plot(rows, &images.join("bench.svg"))?;
+    plot(rows, truth, &images.join("bench.svg"))?;
     // The build that measured: a debug build's CPU work per frame is slower, not its GPU's.
     let cargo = if cfg!(debug_assertions) {
         "cargo run --example bench --"
@@ -707,9 +723,34 @@ fn write_docs(
     let path = dir.join("performance.md");
     std::fs::write(
         &path,
-        performance_md(rows, effects, times, peer, &command, "images/bench.svg"),
+        performance_md(
+            rows,
+            truth,
+            effects,
+            times,
+            peer,
+            &command,
+            "images/bench.svg",
+        ),
     )
     .map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
+/// Each selected preset (with the `--set` knobs) against the path-traced truth, written to
+/// `truth.csv` in `--out`.
+fn measure_truth(args: &Args) -> Result<Vec<TruthRow>, String> {
+    let presets = selected_presets(args)
+        .map(|(name, settings)| {
+            let mut settings = with_knobs(settings, &args.knobs)?;
+            settings.jitter &= !args.no_jitter;
+            Ok((name, settings))
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    let rows = truth::measure(&presets)?;
+    let path = args.out.join("truth.csv");
+    std::fs::write(&path, truth::to_csv(&rows))
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    Ok(rows)
 }
 
 /// The presets `--presets` names, all of them without it.
@@ -1003,9 +1044,14 @@ fn run(args: &Args) -> Result<(), String> {
         let (_, effects) = read("effects.csv")?;
         let times = read("times.csv").ok().map(|(_, text)| text);
         let peer = read("peer.csv").ok().map(|(_, text)| text);
+        let truth = match read("truth.csv") {
+            Ok((path, text)) => truth::from_csv(&path, &text)?,
+            Err(_) => Vec::new(),
+        };
         return write_docs(
             args,
             &report::from_csv(&csv_path, &csv)?,
+            &truth,
             &effects,
             times.as_deref(),
             peer.as_deref(),
@@ -1026,6 +1072,10 @@ fn run(args: &Args) -> Result<(), String> {
     }
     if args.growth {
         return time_growth(args);
+    }
+    if args.truth {
+        measure_truth(args)?;
+        return Ok(());
     }
     let mut rig = bench_rig(args, args.size())?;
     if args.effects_only {
@@ -1098,6 +1148,7 @@ fn run(args: &Args) -> Result<(), String> {
         return Ok(());
     }
     let csv = to_csv(&rows);
+    let truth = measure_truth(args)?;
     let effects = measure_effects(&mut rig, args.frames);
     let effects_path = args.out.join("effects.csv");
     std::fs::write(&effects_path, &effects)
@@ -1106,11 +1157,18 @@ fn run(args: &Args) -> Result<(), String> {
     let csv_path = args.out.join("bench.csv");
     std::fs::write(&csv_path, &csv)
         .map_err(|e| format!("cannot write {}: {e}", csv_path.display()))?;
-    plot(&rows, &args.out.join("bench.svg"))?;
+    plot(&rows, &truth, &args.out.join("bench.svg"))?;
     print!("{csv}");
     let times = std::fs::read_to_string(args.out.join("times.csv")).ok();
     let peer = std::fs::read_to_string(args.out.join("peer.csv")).ok();
-    write_docs(args, &rows, &effects, times.as_deref(), peer.as_deref())
+    write_docs(
+        args,
+        &rows,
+        &truth,
+        &effects,
+        times.as_deref(),
+        peer.as_deref(),
+    )
 }
 
 fn main() -> ExitCode {

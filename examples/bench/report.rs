@@ -5,6 +5,8 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
+use crate::truth::{TruthRow, base_to_top_error};
+
 /// One measured preset (or the reference) in one scene: a row of `bench.csv`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Row {
@@ -117,28 +119,88 @@ fn preset_colour(preset: &str) -> RGBColor {
     }
 }
 
-/// The speed-against-error plot of `rows` (the presets, not the reference) as an SVG at `path`:
-/// log–log axes of the cloud pass's time as a share of the reference's and of the relative RMSE,
-/// one colour per preset, one marker per scene.
-pub fn plot(rows: &[Row], path: &Path) -> Result<(), String> {
+/// One point of the plot: a preset in a scene, at a time ratio and an error.
+struct Point<'a> {
+    scene: String,
+    preset: &'a str,
+    at: (f64, f64),
+}
+
+/// The median of `values` (`None` when empty).
+fn median(mut values: Vec<f64>) -> Option<f64> {
+    values.sort_by(f64::total_cmp);
+    let n = values.len();
+    (n > 0).then(|| 0.5 * (values[(n - 1) / 2] + values[n / 2]))
+}
+
+/// The marker of the `index`th scene at `at` (filled, then hollow shapes; eight kinds).
+fn marker<DB: DrawingBackend, C: Into<ShapeStyle>>(
+    index: usize,
+    at: (i32, i32),
+    colour: C,
+) -> DynElement<'static, DB, (i32, i32)> {
+    let style: ShapeStyle = colour.into();
+    let filled = style.filled();
+    let line = style.stroke_width(2);
+    let (x, y) = at;
+    match index % 8 {
+        0 => Circle::new((x, y), 5, filled).into_dyn(),
+        1 => TriangleMarker::new((x, y), 6, filled).into_dyn(),
+        2 => Rectangle::new([(x - 4, y - 4), (x + 4, y + 4)], filled).into_dyn(),
+        3 => Cross::new((x, y), 5, line).into_dyn(),
+        4 => Circle::new((x, y), 5, line).into_dyn(),
+        5 => TriangleMarker::new((x, y), 6, line).into_dyn(),
+        6 => Rectangle::new([(x - 4, y - 4), (x + 4, y + 4)], line).into_dyn(),
+        _ => Circle::new((x, y), 3, filled).into_dyn(),
+    }
+}
+
+/// The speed-against-error plot of `rows` (the presets, not the reference) and `truth` as an
+/// SVG at `path`: log–log axes of the cloud pass's time as a share of the reference's and of the
+/// relative RMSE, one colour per preset, one marker per scene. The bench scenes' error is against
+/// the converged march; the path-traced truth scenes' (`truth`, named "… (Mitsuba)") against the
+/// truth, at the preset's median time ratio over the bench scenes.
+pub fn plot(rows: &[Row], truth: &[TruthRow], path: &Path) -> Result<(), String> {
     let error = |e: &dyn std::fmt::Display| format!("cannot draw {}: {e}", path.display());
-    let points: Vec<&Row> = rows
+    let measured: Vec<&Row> = rows
         .iter()
         .filter(|r| !r.preset.starts_with("REFERENCE"))
         .collect();
-    let mut scenes: Vec<&str> = Vec::new();
-    let mut presets: Vec<&str> = Vec::new();
-    for r in &points {
-        if !scenes.contains(&r.scene.as_str()) {
-            scenes.push(&r.scene);
-        }
-        if !presets.contains(&r.preset.as_str()) {
-            presets.push(&r.preset);
+    let mut points: Vec<Point> = measured
+        .iter()
+        .map(|r| Point {
+            scene: r.scene.clone(),
+            preset: &r.preset,
+            at: (r.time_ratio(), r.rel_rmse),
+        })
+        .collect();
+    for t in truth {
+        let ratios = measured
+            .iter()
+            .filter(|r| r.preset == t.preset)
+            .map(|r| r.time_ratio())
+            .collect();
+        if let Some(ratio) = median(ratios) {
+            points.push(Point {
+                scene: format!("{} (Mitsuba)", t.scene),
+                preset: &t.preset,
+                at: (ratio, t.rel_rmse),
+            });
         }
     }
-    let root = SVGBackend::new(path, (800, 520)).into_drawing_area();
+    let mut scenes: Vec<String> = Vec::new();
+    let mut presets: Vec<&str> = Vec::new();
+    for p in &points {
+        if !scenes.contains(&p.scene) {
+            scenes.push(p.scene.clone());
+        }
+        if !presets.contains(&p.preset) {
+            presets.push(p.preset);
+        }
+    }
+    let root = SVGBackend::new(path, (800, 560)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| error(&e))?;
-    let size = points
+    let size = measured
         .first()
         .map_or(String::new(), |r| format!(", {}×{}", r.width, r.height));
     let mut chart = ChartBuilder::on(&root)
@@ -151,27 +213,20 @@ pub fn plot(rows: &[Row], path: &Path) -> Result<(), String> {
     chart
         .configure_mesh()
         .x_desc("cloud pass time / reference's time")
-        .y_desc("relative RMSE of luminance")
+        .y_desc("relative RMSE of luminance (Mitsuba scenes: against the path-traced truth)")
         .x_label_formatter(&|x| format!("{x:.0e}"))
         .y_label_formatter(&|y| format!("{y:.0e}"))
         .draw()
         .map_err(|e| error(&e))?;
-    let clamp = |r: &Row| (r.time_ratio().clamp(1e-3, 1.0), r.rel_rmse.clamp(1e-4, 1.0));
-    for r in &points {
-        let colour = preset_colour(&r.preset);
-        let scene = scenes.iter().position(|s| *s == r.scene).unwrap_or(0);
-        let at = clamp(r);
-        let (filled, line) = (colour.filled(), colour.stroke_width(2));
-        let drawn = match scene % 5 {
-            0 => chart.draw_series(std::iter::once(Circle::new(at, 5, filled))),
-            1 => chart.draw_series(std::iter::once(TriangleMarker::new(at, 6, filled))),
-            2 => chart.draw_series(std::iter::once(
-                EmptyElement::at(at) + Rectangle::new([(-4, -4), (4, 4)], filled),
-            )),
-            3 => chart.draw_series(std::iter::once(Cross::new(at, 5, line))),
-            _ => chart.draw_series(std::iter::once(Circle::new(at, 5, line))),
-        };
-        drawn.map_err(|e| error(&e))?;
+    for p in &points {
+        let colour = preset_colour(p.preset);
+        let scene = scenes.iter().position(|s| *s == p.scene).unwrap_or(0);
+        let at = (p.at.0.clamp(1e-3, 1.0), p.at.1.clamp(1e-4, 1.0));
+        chart
+            .draw_series(std::iter::once(
+                EmptyElement::at(at) + marker(scene, (0, 0), colour),
+            ))
+            .map_err(|e| error(&e))?;
     }
     for preset in &presets {
         let colour = preset_colour(preset);
@@ -185,17 +240,8 @@ pub fn plot(rows: &[Row], path: &Path) -> Result<(), String> {
         chart
             .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
             .map_err(|e| error(&e))?
-            .label(*scene)
-            .legend(move |(x, y)| {
-                let style = BLACK.filled();
-                match index % 5 {
-                    0 => Circle::new((x + 5, y), 5, style).into_dyn(),
-                    1 => TriangleMarker::new((x + 5, y), 6, style).into_dyn(),
-                    2 => Rectangle::new([(x + 1, y - 4), (x + 9, y + 4)], style).into_dyn(),
-                    3 => Cross::new((x + 5, y), 5, BLACK.stroke_width(2)).into_dyn(),
-                    _ => Circle::new((x + 5, y), 5, BLACK.stroke_width(2)).into_dyn(),
-                }
-            });
+            .label(scene.as_str())
+            .legend(move |(x, y)| marker(index, (x + 5, y), BLACK));
     }
     chart
         .configure_series_labels()
@@ -211,6 +257,7 @@ pub fn plot(rows: &[Row], path: &Path) -> Result<(), String> {
 /// at `plot` (relative to the document).
 pub fn performance_md(
     rows: &[Row],
+    truth: &[TruthRow],
     effects: &str,
     times: Option<&str>,
     peer: Option<&str>,
@@ -262,6 +309,9 @@ pub fn performance_md(
             .collect();
         md.push_str(&format!("| {scene} | {} |\n", cells.join(" | ")));
     }
+    if !truth.is_empty() {
+        push_truth_table(&mut md, truth);
+    }
     md.push_str(&format!(
         "\n![Speed against error of the presets]({plot})\n"
     ));
@@ -294,6 +344,60 @@ pub fn performance_md(
         push_csv_table(&mut md, effects);
     }
     md
+}
+
+/// The presets against the path-traced truth (`truth.csv`): each scene's relative RMSE and mean
+/// brightness error, and the base-to-top ratio's error.
+fn push_truth_table(md: &mut String, truth: &[TruthRow]) {
+    let mut scenes: Vec<&str> = Vec::new();
+    let mut presets: Vec<&str> = Vec::new();
+    for r in truth {
+        if !scenes.contains(&r.scene.as_str()) {
+            scenes.push(&r.scene);
+        }
+        if !presets.contains(&r.preset.as_str()) {
+            presets.push(&r.preset);
+        }
+    }
+    let jitters = truth.iter().map(|r| r.jitters).max().unwrap_or(1);
+    md.push_str(&format!(
+        "\n## Against the path-traced truth\n\nEach preset's march of the three cumulus scenes \
+         that Mitsuba 3 path-traced from the crate's own density field (`validation/mitsuba/`, \
+         `validation/README.md`): the CPU twin, which the GPU march is tested against, with the \
+         preset's steps and knobs, each pixel the mean of {jitters} jitter offsets as the \
+         temporal accumulation averages them (`truth.csv`). Each cell is the relative RMSE of \
+         the luminance against Mitsuba's image and, in brackets, the mean brightness's error; \
+         the last row is the error of the ratio of the base's mean brightness (from below) to \
+         the top's (from above).\n\n"
+    ));
+    md.push_str(&format!("| scene | {} |\n", presets.join(" | ")));
+    md.push_str(&format!("|---|{}\n", "---|".repeat(presets.len())));
+    for scene in &scenes {
+        let cells: Vec<String> = presets
+            .iter()
+            .map(|preset| {
+                truth
+                    .iter()
+                    .find(|r| r.scene == *scene && r.preset == *preset)
+                    .map_or("–".into(), |r| {
+                        format!(
+                            "{:.1} % ({:+.1} %)",
+                            100.0 * r.rel_rmse,
+                            100.0 * r.mean_error
+                        )
+                    })
+            })
+            .collect();
+        md.push_str(&format!("| {scene} | {} |\n", cells.join(" | ")));
+    }
+    let ratios: Vec<String> = presets
+        .iter()
+        .map(|preset| {
+            base_to_top_error(truth, preset)
+                .map_or("–".into(), |e| format!("{:+.1} %", 100.0 * e))
+        })
+        .collect();
+    md.push_str(&format!("| base / top | {} |\n", ratios.join(" | ")));
 }
 
 /// `csv` (a header line, then rows) as a Markdown table.

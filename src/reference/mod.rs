@@ -35,4 +35,5 @@ pub mod render;
 pub mod shadow;
 #[cfg(test)]
 pub(crate) mod table;
+pub mod truth;
 pub mod weather_map;

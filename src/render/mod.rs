@@ -357,6 +357,39 @@ impl VolumetricClouds {
 }
 
 impl VolumetricClouds {
+    /// The knobs of these settings that the march itself reads (steps, growth, cut-off, multiple
+    /// scattering, jitter, the shortest step and the light-step limits) as the CPU twin's
+    /// settings, everything else at the defaults of
+    /// [`MarchSettings`](crate::reference::render::MarchSettings): what the renderer extracts
+    /// for a view before it adds the view, the world and the sun, and what a CPU march of a
+    /// preset starts from (the bench's ground-truth scenes).
+    #[doc(hidden)]
+    #[must_use]
+    pub fn march_knobs(&self) -> crate::reference::render::MarchSettings {
+        use crate::reference::render::MarchSettings;
+        MarchSettings {
+            primary_steps: self.primary_steps,
+            light_steps: self.light_steps,
+            step_growth: f64::from(self.step_growth.max(0.0)),
+            transmittance_cutoff: f64::from(self.transmittance_cutoff.clamp(0.0, 1.0)),
+            multiple_scattering: self.multiple_scattering,
+            jitter: self.jitter,
+            min_step_m: if self.min_step_m.is_finite() {
+                f64::from(self.min_step_m.max(0.0))
+            } else {
+                0.0
+            },
+            light_steps_away_from_sun: f64::from(self.light_steps_away_from_sun),
+            sun_from_shadow_map_m: if self.sun_from_shadow_map_m.is_nan() {
+                f64::INFINITY
+            } else {
+                f64::from(self.sun_from_shadow_map_m.max(0.0))
+            },
+            light_steps_per_footprint: f64::from(self.light_steps_per_footprint),
+            ..MarchSettings::default()
+        }
+    }
+
     /// The preset these settings are, or [`CloudQuality::Custom`] when a knob differs from every
     /// preset ([`VolumetricClouds::reset_history`] aside).
     #[must_use]

@@ -169,30 +169,12 @@ pub fn march_inputs<'a>(
         planet_radius_m: radius,
         camera_altitude_m,
         camera_up: up.to_array(),
-        primary_steps: settings.primary_steps,
-        light_steps: settings.light_steps,
-        step_growth: f64::from(settings.step_growth.max(0.0)),
-        transmittance_cutoff: f64::from(settings.transmittance_cutoff.clamp(0.0, 1.0)),
-        multiple_scattering: settings.multiple_scattering,
         phase_g_forward: f64::from(world.phase_g_forward),
         phase_g_back: f64::from(world.phase_g_back),
         phase_blend: f64::from(world.phase_blend),
         pixel_angle_rad,
-        jitter: settings.jitter,
         frame_index,
-        min_step_m: if settings.min_step_m.is_finite() {
-            f64::from(settings.min_step_m.max(0.0))
-        } else {
-            0.0
-        },
-        light_steps_away_from_sun: f64::from(settings.light_steps_away_from_sun),
-        sun_from_shadow_map_m: if settings.sun_from_shadow_map_m.is_nan() {
-            f64::INFINITY
-        } else {
-            f64::from(settings.sun_from_shadow_map_m.max(0.0))
-        },
-        light_steps_per_footprint: f64::from(settings.light_steps_per_footprint),
-        ..default()
+        ..settings.march_knobs()
     };
 
     let lowest_base = march_layers

@@ -10,18 +10,11 @@ mod disort;
 mod march;
 mod mitsuba;
 
-/// Small textures (the default recipe's channels at 16³, 8³ and 32²): the march samples them
-/// exactly as it would the full-size ones, and a debug build generates them in a blink.
+/// Small textures (the default recipe's channels at 16³, 8³ and 32²), the ones the Mitsuba
+/// field was exported from: the march samples them exactly as it would the full-size ones, and a
+/// debug build generates them in a blink.
 fn textures() -> &'static CloudTextures {
-    static TEXTURES: OnceLock<CloudTextures> = OnceLock::new();
-    TEXTURES.get_or_init(|| {
-        CloudTextures::from_recipe(&NoiseRecipe {
-            base_size: 16,
-            detail_size: 8,
-            weather_size: 32,
-            ..NoiseRecipe::default()
-        })
-    })
+    crate::reference::truth::textures()
 }
 
 const UP: [f64; 3] = [0.0, 1.0, 0.0];

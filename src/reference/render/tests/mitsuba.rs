@@ -1,22 +1,18 @@
-//! Heterogeneous cumulus against Mitsuba 3 (`validation/mitsuba/`): the crate's own density
-//! field, exported on a grid, path-traced with unlimited bounces, against the CPU twin's march of
-//! the same field. `cargo test --lib export_mitsuba_volumes -- --ignored` writes the grid and the
-//! scenes; `validation/.venv/bin/python validation/mitsuba/render_cumulus.py` renders them.
+//! Heterogeneous cumulus against Mitsuba 3 (`validation/mitsuba/`, the scenes in
+//! [`crate::reference::truth`]): the crate's own density field, exported on a grid, path-traced
+//! with unlimited bounces, against the CPU twin's march of the same field.
+//! `cargo test --lib export_mitsuba_volumes -- --ignored` writes the grid and the scenes;
+//! `validation/.venv/bin/python validation/mitsuba/render_cumulus.py` renders them.
 
 use super::*;
+use crate::reference::truth::{
+    Comparison, FOLDER, FOV_DEG, HEIGHT, SKY, WIDTH, base_to_top_error, converged_settings,
+    crate_image, cumulus, parse_image, scenes, textures, truth_image,
+};
 use std::fmt::Write as _;
 
-/// The committed scene description and the folder of the renders, relative to the crate root.
-const FOLDER: &str = "validation/mitsuba";
 /// The grid, written next to the scenes (not committed: the export makes it again).
 const VOLUME: &str = "validation/mitsuba/volumes/cumulus.vol";
-/// Image size of every scene, pixels.
-const WIDTH: u32 = 32;
-const HEIGHT: u32 = 18;
-/// Horizontal field of view, degrees.
-const FOV_DEG: f64 = 50.0;
-/// Sky radiance per unit sun irradiance, 1/sr (as in the DISORT decks).
-const SKY: f64 = 0.05;
 /// The grid: x and z over ±`HALF_WIDTH_M`, y over the layer, cells of this size.
 const HALF_WIDTH_M: f64 = 12_000.0;
 const CELL_M: f64 = 100.0;
@@ -24,117 +20,14 @@ const CELL_Y_M: f64 = 50.0;
 /// The base-to-top ratio the validation asks of `HIGH`.
 const RATIO_TARGET: f64 = 0.15;
 
-/// A scene: camera position and view direction (world, y up), sun direction (toward the sun).
-struct Scene {
-    name: &'static str,
-    camera: [f64; 3],
-    forward: [f64; 3],
-    sun: [f64; 3],
+/// The crate root, where the committed images are.
+fn root() -> &'static std::path::Path {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
-fn direction(elevation_deg: f64, toward: [f64; 2]) -> [f64; 3] {
-    let e = elevation_deg.to_radians();
-    [toward[0] * e.cos(), e.sin(), toward[1] * e.cos()]
-}
-
-fn scenes() -> [Scene; 3] {
-    [
-        Scene {
-            name: "below",
-            camera: [0.0, 0.0, 0.0],
-            forward: direction(70.0, [1.0, 0.0]),
-            sun: direction(50.0, [0.0, -1.0]),
-        },
-        Scene {
-            name: "above",
-            camera: [0.0, 5_000.0, 0.0],
-            forward: direction(-60.0, [1.0, 0.0]),
-            sun: direction(50.0, [0.0, -1.0]),
-        },
-        Scene {
-            name: "backlit",
-            camera: [0.0, 0.0, 0.0],
-            forward: direction(40.0, [0.0, -1.0]),
-            sun: direction(20.0, [0.0, -1.0]),
-        },
-    ]
-}
-
-/// The cumulus: smooth shapes (no detail noise, which a 100 m grid cannot hold), 1.5–3 km.
-fn cumulus() -> MarchLayer {
-    MarchLayer {
-        base_m: 1_500.0,
-        top_m: 3_000.0,
-        coverage: 0.55,
-        extinction: 0.04,
-        weather_scale_m: 12_000.0,
-        shape_scale_m: 6_000.0,
-        detail_erosion: 0.0,
-        ..MarchLayer::default()
-    }
-}
-
-/// The twin's settings for a scene: a flat planet, the sun and sky of the scene, many steps.
-fn scene_settings(scene: &Scene) -> MarchSettings {
-    MarchSettings {
-        planet_radius_m: 1e10,
-        camera_altitude_m: 0.0,
-        sun_direction: scene.sun,
-        sun_illuminance: [1.0; 3],
-        ambient_top: [SKY; 3],
-        ambient_bottom: [0.0; 3],
-        primary_steps: 256,
-        light_steps: 16,
-        step_growth: 0.0,
-        transmittance_cutoff: 0.0,
-        jitter: false,
-        ..MarchSettings::default()
-    }
-}
-
-/// The view ray through pixel `(i, j)` (row 0 at the top), as Mitsuba's `look_at` camera with a
-/// horizontal field of view.
-fn pixel_direction(scene: &Scene, i: u32, j: u32) -> [f64; 3] {
-    let f = scene.forward;
-    let norm = |v: [f64; 3]| scale(v, 1.0 / dot(v, v).sqrt());
-    let right = norm([-f[2], 0.0, f[0]]);
-    let up = [
-        right[1] * f[2] - right[2] * f[1],
-        right[2] * f[0] - right[0] * f[2],
-        right[0] * f[1] - right[1] * f[0],
-    ];
-    let tan_x = (0.5 * FOV_DEG).to_radians().tan();
-    let tan_y = tan_x * f64::from(HEIGHT) / f64::from(WIDTH);
-    let x = (2.0 * (f64::from(i) + 0.5) / f64::from(WIDTH) - 1.0) * tan_x;
-    let y = (1.0 - 2.0 * (f64::from(j) + 0.5) / f64::from(HEIGHT)) * tan_y;
-    norm(add(add(f, scale(right, x)), scale(up, y)))
-}
-
-/// The twin's image of a scene: radiance per unit sun irradiance, with the sky behind the
-/// clouds (`T · L`) and the black ground.
-fn crate_image(scene: &Scene) -> Vec<f64> {
-    let settings = scene_settings(scene);
-    let layer = cumulus();
-    let mut image = Vec::with_capacity((WIDTH * HEIGHT) as usize);
-    for j in 0..HEIGHT {
-        for i in 0..WIDTH {
-            let direction = pixel_direction(scene, i, j);
-            let result = march_clouds(
-                textures(),
-                &settings,
-                std::slice::from_ref(&layer),
-                scene.camera[1],
-                UP,
-                direction,
-                f64::INFINITY,
-                0.5,
-                None,
-            );
-            let behind = if direction[1] > 0.0 { SKY } else { 0.0 };
-            image.push(result.radiance[1] + result.transmittance * behind);
-        }
-    }
-    image
+/// Mitsuba's image of `name`; an error names the file and the row.
+fn mitsuba_image(name: &str) -> Result<Vec<f64>, String> {
+    truth_image(root(), name)
 }
 
 /// Writes the grid (Mitsuba's `.vol`: the twin's extinction at each cell centre, 1/m) and the
@@ -142,9 +35,9 @@ fn crate_image(scene: &Scene) -> Vec<f64> {
 #[test]
 #[ignore = "writes validation/mitsuba/volumes/cumulus.vol and scenes.json; run by hand"]
 fn export_mitsuba_volumes() {
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = root();
     let layer = cumulus();
-    let settings = scene_settings(&scenes()[0]);
+    let settings = converged_settings(&scenes()[0]);
     let nx = (2.0 * HALF_WIDTH_M / CELL_M) as u32;
     let ny = ((layer.top_m - layer.base_m) / CELL_Y_M) as u32;
     let mut bytes = Vec::new();
@@ -211,64 +104,21 @@ fn export_mitsuba_volumes() {
     std::fs::write(root.join(FOLDER).join("scenes.json"), json).unwrap();
 }
 
-/// Mitsuba's image of `name` (`validation/mitsuba/<name>.csv`: one row per image row); an error
-/// names the file and the row.
-fn mitsuba_image(name: &str) -> Result<Vec<f64>, String> {
-    let file = format!("{FOLDER}/{name}.csv");
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(&file);
-    let text =
-        std::fs::read_to_string(&path).map_err(|e| format!("{file}: cannot be read ({e})"))?;
-    parse_image(&file, &text)
-}
-
-/// The radiances of `text` (the contents of `file`), [`WIDTH`] per row, [`HEIGHT`] rows.
-fn parse_image(file: &str, text: &str) -> Result<Vec<f64>, String> {
-    let mut image = Vec::new();
-    for (row, line) in text.lines().enumerate() {
-        let values: Vec<f64> = line
-            .split(',')
-            .map(|v| {
-                v.trim()
-                    .parse::<f64>()
-                    .ok()
-                    .filter(|v| v.is_finite() && *v >= 0.0)
-            })
-            .collect::<Option<_>>()
-            .ok_or_else(|| format!("{file}: row {}: not {WIDTH} radiances", row + 1))?;
-        if values.len() != WIDTH as usize {
-            return Err(format!(
-                "{file}: row {}: {} values, expected {WIDTH}",
-                row + 1,
-                values.len()
-            ));
-        }
-        image.extend(values);
-    }
-    if image.len() != (WIDTH * HEIGHT) as usize {
-        return Err(format!(
-            "{file}: {} rows, expected {HEIGHT}",
-            image.len() / WIDTH as usize
-        ));
-    }
-    Ok(image)
-}
-
-/// Each scene's relative RMSE of luminance against Mitsuba, the means of the twin and of
-/// Mitsuba, and a printable report; computed once for the tests that read it.
-fn comparison() -> &'static (Vec<(f64, f64, f64)>, String) {
-    static COMPARISON: std::sync::OnceLock<(Vec<(f64, f64, f64)>, String)> =
-        std::sync::OnceLock::new();
+/// Each scene's comparison with Mitsuba and a printable report; computed once for the tests
+/// that read it.
+fn comparison() -> &'static (Vec<Comparison>, String) {
+    static COMPARISON: std::sync::OnceLock<(Vec<Comparison>, String)> = std::sync::OnceLock::new();
     COMPARISON.get_or_init(compare)
 }
 
 /// [`comparison`], marched anew.
-fn compare() -> (Vec<(f64, f64, f64)>, String) {
+fn compare() -> (Vec<Comparison>, String) {
     let mut report = String::new();
     let mut figures = Vec::new();
     for scene in scenes() {
-        let ours = crate_image(&scene);
+        let ours = crate_image(&scene, &converged_settings(&scene), 1);
         // The twin's image next to the target, for a look (`target/validation/`).
-        let dump = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target/validation");
+        let dump = root().join("target/validation");
         let _ = std::fs::create_dir_all(&dump);
         let rows: Vec<String> = ours
             .chunks(WIDTH as usize)
@@ -284,25 +134,17 @@ fn compare() -> (Vec<(f64, f64, f64)>, String) {
             rows.join("\n") + "\n",
         );
         let truth = mitsuba_image(scene.name).unwrap_or_else(|e| panic!("{e}"));
-        let mean = truth.iter().sum::<f64>() / truth.len() as f64;
-        let mse = ours
-            .iter()
-            .zip(&truth)
-            .map(|(a, b)| (a - b).powi(2))
-            .sum::<f64>()
-            / truth.len() as f64;
-        let rmse = mse.sqrt() / mean;
-        let our_mean = ours.iter().sum::<f64>() / ours.len() as f64;
-        figures.push((rmse, our_mean, mean));
+        let figure = Comparison::of(&ours, &truth);
         let _ = writeln!(
             report,
             "{}: relative RMSE {:.1} %, mean {:.4} against {:.4} ({:+.1} %)",
             scene.name,
-            100.0 * rmse,
-            our_mean,
-            mean,
-            100.0 * (our_mean / mean - 1.0)
+            100.0 * figure.relative_rmse,
+            figure.mean,
+            figure.truth_mean,
+            100.0 * figure.mean_error()
         );
+        figures.push(figure);
     }
     (figures, report)
 }
@@ -314,15 +156,12 @@ fn compare() -> (Vec<(f64, f64, f64)>, String) {
 #[test]
 fn cumulus_base_to_top_ratio_matches_mitsuba() {
     let (figures, report) = comparison();
-    let ratio = (figures[0].1 / figures[1].1) / (figures[0].2 / figures[1].2);
-    println!(
-        "{report}base / top {:+.1} % from Mitsuba's",
-        100.0 * (ratio - 1.0)
-    );
+    let error = base_to_top_error(&figures[0], &figures[1]);
+    println!("{report}base / top {:+.1} % from Mitsuba's", 100.0 * error);
     assert!(
-        (ratio - 1.0).abs() <= RATIO_TARGET,
+        error.abs() <= RATIO_TARGET,
         "base / top {:+.1} % from Mitsuba's\n{report}",
-        100.0 * (ratio - 1.0)
+        100.0 * error
     );
 }
 
@@ -332,11 +171,13 @@ fn cumulus_base_to_top_ratio_matches_mitsuba() {
 #[test]
 fn cumulus_mean_brightness_matches_mitsuba() {
     let (figures, report) = comparison();
-    for (scene, &(_, ours, truth)) in scenes().iter().zip(figures) {
+    for (scene, figure) in scenes().iter().zip(figures) {
         assert!(
-            (ours / truth - 1.0).abs() <= RATIO_TARGET,
-            "{}: mean {ours:.4} against Mitsuba's {truth:.4}\n{report}",
-            scene.name
+            figure.mean_error().abs() <= RATIO_TARGET,
+            "{}: mean {:.4} against Mitsuba's {:.4}\n{report}",
+            scene.name,
+            figure.mean,
+            figure.truth_mean
         );
     }
 }
