@@ -28,6 +28,8 @@ pub(crate) struct BernOptions {
     pub(crate) azimuth_deg: Option<f32>,
     /// `--growth`: the low clouds grow with the automaton (`CloudGrowth`).
     pub(crate) growth: bool,
+    /// `--look`: the headless shots are the look board's views ([`look::BOARD`]).
+    pub(crate) look: bool,
 }
 
 /// The Bern demo; the flags are explained at the top of `examples/bern.rs`.
@@ -91,6 +93,12 @@ pub(crate) struct Cli {
     /// forecast's low cover rises and falls).
     #[arg(long)]
     pub(crate) growth: bool,
+    /// Render the look board (`docs/look.md`): eight views of the bundled week, one weather
+    /// each, into the folder `--out` (`frame_000.png`, …) and tiled into `board.png` there.
+    /// Headless only; `--camera`, `--time`, `--azimuth`, `--ev100` and `--frames` are the
+    /// board's.
+    #[arg(long, conflicts_with_all = ["frames", "photos"])]
+    pub(crate) look: bool,
 }
 
 impl Cli {
@@ -99,7 +107,12 @@ impl Cli {
         if self.frames.is_some() && !self.headless {
             return Err("--frames makes a headless time-lapse: add --headless".into());
         }
-        let default_out = if self.frames.is_some() {
+        if self.look && !self.headless {
+            return Err("--look renders the board headless: add --headless".into());
+        }
+        let default_out = if self.look {
+            "look"
+        } else if self.frames.is_some() {
             "bern_frames"
         } else {
             "bern.png"
@@ -113,7 +126,11 @@ impl Cli {
         let options = BernOptions {
             viewpoint: self.camera,
             time: self.time,
-            shots: self.frames,
+            shots: if self.look {
+                Some(look::BOARD.len() as u32)
+            } else {
+                self.frames
+            },
             step_s: self.step,
             photos: self.photos,
             photo_opacity: self.photo_opacity,
@@ -129,6 +146,7 @@ impl Cli {
             clouds: !self.no_clouds,
             azimuth_deg: self.azimuth,
             growth: self.growth,
+            look: self.look,
         };
         Ok((args, options))
     }

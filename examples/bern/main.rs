@@ -50,6 +50,7 @@
 //! | `--log-frame-times` | log the frame time and the cloud passes' GPU times every second | off |
 //! | `--growth` | the low clouds grow with the cloud-growth automaton: they form and dissolve as the low cover changes | off |
 //! | `--no-cloud-shadows` | turn the cloud shadow map off (to compare, or to time its cost) | on |
+//! | `--look` | headless: render the look board (`docs/look.md`), eight views of the week's weathers, into the folder `--out` and tile them into `board.png` there | off |
 //! | `--dem PATH` | elevation file (ESRI ASCII grid or `GeoTIFF`, WGS 84 degrees) | `assets/terrain/bern_globe30s.asc` |
 //!
 //! A bad flag exits with status 2 and a message. Without a display, run with `--headless`.
@@ -73,6 +74,7 @@ mod common;
 
 mod cli;
 mod headless;
+mod look;
 mod panels;
 mod photos;
 mod scene;
@@ -169,9 +171,8 @@ fn main() -> AppExit {
     .insert_resource(GlobalAmbientLight::NONE)
     .insert_resource(clock)
     .insert_resource(ViewState {
-        viewpoint: options.viewpoint,
-        free: false,
         azimuth_deg: options.azimuth_deg,
+        ..ViewState::on(options.viewpoint)
     })
     .insert_resource(PhotoOverlay {
         visible: options.photos.is_some(),
@@ -198,7 +199,13 @@ fn main() -> AppExit {
         .add_systems(
             Update,
             (
-                follow_headless_shots.before(CloudscapeSystems::Clock),
+                follow_headless_shots
+                    .run_if(|options: Res<BernOptions>| !options.look)
+                    .before(CloudscapeSystems::Clock),
+                look::follow_look_shots
+                    .run_if(|options: Res<BernOptions>| options.look)
+                    .before(apply_view)
+                    .before(CloudscapeSystems::Clock),
                 cut_transitions.before(CloudscapeSystems::Layers),
                 wait_for_forecasts.after(CloudscapeSystems::Layers),
                 wait_for_growth
@@ -231,11 +238,27 @@ fn main() -> AppExit {
         }
         app.add_plugins(LogDiagnosticsPlugin::default());
     }
-    app.insert_resource(CloudShadows {
-        enabled: options.cloud_shadows,
-        ..default()
-    })
-    .insert_resource(options)
-    .insert_resource(args)
-    .run()
+    let board = options.look.then(|| args.out.clone());
+    let exit = app
+        .insert_resource(CloudShadows {
+            enabled: options.cloud_shadows,
+            ..default()
+        })
+        .insert_resource(options)
+        .insert_resource(args)
+        .run();
+    match board
+        .filter(|_| exit.is_success())
+        .map(|folder| look::write_board(&folder))
+    {
+        Some(Ok(path)) => {
+            println!("bern: the look board is {}", path.display());
+            exit
+        }
+        Some(Err(message)) => {
+            eprintln!("bern: {message}");
+            AppExit::from_code(1)
+        }
+        None => exit,
+    }
 }

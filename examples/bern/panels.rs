@@ -199,11 +199,7 @@ fn control_window(
                         )
                         .clicked()
                     {
-                        next_view = ViewState {
-                            viewpoint,
-                            free: false,
-                            azimuth_deg: None,
-                        };
+                        next_view = ViewState::on(viewpoint);
                     }
                 }
                 ui.checkbox(&mut next_view.free, "free camera (F)");

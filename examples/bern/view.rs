@@ -16,18 +16,10 @@ pub(crate) fn view_keys(
     }
     let mut next = *view;
     if keys.just_pressed(KeyCode::Digit1) {
-        next = ViewState {
-            viewpoint: Viewpoint::Gurten,
-            free: false,
-            azimuth_deg: None,
-        };
+        next = ViewState::on(Viewpoint::Gurten);
     }
     if keys.just_pressed(KeyCode::Digit2) {
-        next = ViewState {
-            viewpoint: Viewpoint::Bantiger,
-            free: false,
-            azimuth_deg: None,
-        };
+        next = ViewState::on(Viewpoint::Bantiger);
     }
     if keys.just_pressed(KeyCode::KeyF) {
         next.free = !next.free;

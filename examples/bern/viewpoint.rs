@@ -79,6 +79,24 @@ pub(crate) struct ViewState {
     /// `--azimuth`: look this way instead of the view's own direction, degrees clockwise from
     /// north (cleared when another view is picked).
     pub(crate) azimuth_deg: Option<f32>,
+    /// The camera this far above the eye height on the hill, metres (the look board's view from
+    /// above the clouds); 0 on the hill.
+    pub(crate) lift_m: f32,
+    /// Look this far up (negative: down), degrees, instead of [`PITCH_DEG`].
+    pub(crate) pitch_deg: Option<f32>,
+}
+
+impl ViewState {
+    /// The view from `viewpoint`'s hill in its own direction.
+    pub(crate) fn on(viewpoint: Viewpoint) -> Self {
+        Self {
+            viewpoint,
+            free: false,
+            azimuth_deg: None,
+            lift_m: 0.0,
+            pitch_deg: None,
+        }
+    }
 }
 
 /// The terrain, kept on the CPU to put cameras on it.
@@ -127,12 +145,16 @@ pub(crate) fn viewpoint_transform(view: &ViewState, terrain: &Terrain) -> Transf
         // alike.
         None => (DVec2::new(x, z), summit.altitude_m),
     };
-    let pitch = PITCH_DEG.to_radians();
+    let pitch = view.pitch_deg.unwrap_or(PITCH_DEG).to_radians();
     let forward = Vec3::new(
         azimuth.sin() * pitch.cos(),
         pitch.sin(),
         -azimuth.cos() * pitch.cos(),
     );
-    Transform::from_xyz(position.x as f32, ground + EYE_HEIGHT_M, position.y as f32)
-        .looking_to(forward, Vec3::Y)
+    Transform::from_xyz(
+        position.x as f32,
+        ground + EYE_HEIGHT_M + view.lift_m.max(0.0),
+        position.y as f32,
+    )
+    .looking_to(forward, Vec3::Y)
 }
