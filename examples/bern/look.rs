@@ -101,21 +101,25 @@ pub(crate) const BOARD: [Shot; 8] = [
 /// Views per row of the contact sheet.
 pub(crate) const BOARD_COLUMNS: u32 = 4;
 
-/// Puts the current shot of the board on screen: its time, its view and its exposure.
+/// Puts the current shot of the board on screen: its time, its view and its exposure. Each
+/// shot is a camera cut (another day, another weather): the clouds' temporal accumulation starts
+/// over, or the last view's clouds would linger in the new one's history.
 pub(crate) fn follow_look_shots(
     progress: Res<HeadlessProgress>,
+    mut shown: Local<Option<u32>>,
     mut clock: ResMut<SceneClock>,
     mut view: ResMut<ViewState>,
-    mut cameras: Query<&mut Exposure, With<MainCamera>>,
+    mut cameras: Query<(&mut Exposure, Option<&mut VolumetricClouds>), With<MainCamera>>,
 ) {
     let Some(shot) = BOARD.get(progress.shot as usize) else {
         return;
     };
-    let time: UtcInstant = shot.time.parse().expect("the board's times are RFC 3339");
-    let t = time.unix_seconds() as f64;
-    if clock.unix_seconds() != t {
+    let cut = *shown != Some(progress.shot);
+    if cut {
+        *shown = Some(progress.shot);
         info!("look board {}: {}", progress.shot, shot.label);
-        clock.set_unix_seconds(t);
+        let time: UtcInstant = shot.time.parse().expect("the board's times are RFC 3339");
+        clock.set_unix_seconds(time.unix_seconds() as f64);
     }
     view.set_if_neq(ViewState {
         azimuth_deg: shot.azimuth_deg,
@@ -123,9 +127,12 @@ pub(crate) fn follow_look_shots(
         pitch_deg: shot.pitch_deg,
         ..ViewState::on(shot.viewpoint)
     });
-    for mut exposure in &mut cameras {
+    for (mut exposure, clouds) in &mut cameras {
         if exposure.ev100 != shot.ev100 {
             exposure.ev100 = shot.ev100;
+        }
+        if let Some(mut clouds) = clouds.filter(|_| cut) {
+            clouds.reset_history = true;
         }
     }
 }
