@@ -57,55 +57,123 @@ pub fn to_csv(rows: &[Row]) -> String {
     csv
 }
 
-/// The rows of a `bench.csv` read from `file`; an error names the file and the row.
-pub fn from_csv(file: &Path, text: &str) -> Result<Vec<Row>, String> {
+/// One data row of a CSV file being read: what its fields' parse errors name.
+pub struct CsvRow<'a> {
+    file: &'a Path,
+    /// 1-based line number.
+    line: usize,
+}
+
+impl CsvRow<'_> {
+    /// An error naming the file and the row.
+    pub fn error(&self, what: &str) -> String {
+        format!("{}: row {}: {what}", self.file.display(), self.line)
+    }
+
+    /// A finite number.
+    pub fn number(&self, text: &str) -> Result<f64, String> {
+        text.parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| self.error(&format!("{text:?} is not a number")))
+    }
+
+    /// A whole number.
+    pub fn whole<T: std::str::FromStr>(&self, text: &str) -> Result<T, String> {
+        text.parse()
+            .map_err(|_| self.error(&format!("{text:?} is not a whole number")))
+    }
+}
+
+/// The rows of the CSV `text` read from `file`: the first line must be `header`, each other
+/// non-empty line has `N` fields, which `parse` turns into a row. An error names the file and
+/// the row.
+pub fn read_csv<T, const N: usize>(
+    file: &Path,
+    text: &str,
+    header: &str,
+    parse: impl Fn(&CsvRow, [&str; N]) -> Result<T, String>,
+) -> Result<Vec<T>, String> {
     let mut lines = text.lines();
-    if lines.next().map(str::trim) != Some(BENCH_HEADER) {
-        return Err(format!("{}: row 1 is not {BENCH_HEADER:?}", file.display()));
+    if lines.next().map(str::trim) != Some(header) {
+        return Err(format!("{}: row 1 is not {header:?}", file.display()));
     }
     lines
         .enumerate()
         .filter(|(_, line)| !line.trim().is_empty())
         .map(|(i, line)| {
-            let bad = |what: &str| format!("{}: row {}: {what}", file.display(), i + 2);
+            let row = CsvRow { file, line: i + 2 };
             let fields: Vec<&str> = line.split(',').collect();
-            let [
-                scene,
-                preset,
-                width,
-                height,
-                ms,
-                ref_ms,
-                rel_rmse,
-                max_abs,
-                nan_count,
-            ] = fields[..]
-            else {
-                return Err(bad(&format!("{} fields, expected 9", fields.len())));
-            };
-            let number = |text: &str| -> Result<f64, String> {
-                text.parse::<f64>()
-                    .ok()
-                    .filter(|v| v.is_finite())
-                    .ok_or_else(|| bad(&format!("{text:?} is not a number")))
-            };
-            let whole = |text: &str| -> Result<u32, String> {
-                text.parse()
-                    .map_err(|_| bad(&format!("{text:?} is not a whole number")))
-            };
+            let fields: [&str; N] = fields
+                .as_slice()
+                .try_into()
+                .map_err(|_| row.error(&format!("{} fields, expected {N}", fields.len())))?;
+            parse(&row, fields)
+        })
+        .collect()
+}
+
+/// The rows of a `bench.csv` read from `file`; an error names the file and the row.
+pub fn from_csv(file: &Path, text: &str) -> Result<Vec<Row>, String> {
+    read_csv(
+        file,
+        text,
+        BENCH_HEADER,
+        |row,
+         [
+            scene,
+            preset,
+            width,
+            height,
+            ms,
+            ref_ms,
+            rel_rmse,
+            max_abs,
+            nan_count,
+        ]| {
             Ok(Row {
                 scene: scene.to_owned(),
                 preset: preset.to_owned(),
-                width: whole(width)?,
-                height: whole(height)?,
-                ms: number(ms)?,
-                ref_ms: number(ref_ms)?,
-                rel_rmse: number(rel_rmse)?,
-                max_abs: number(max_abs)?,
-                nan_count: whole(nan_count)? as usize,
+                width: row.whole(width)?,
+                height: row.whole(height)?,
+                ms: row.number(ms)?,
+                ref_ms: row.number(ref_ms)?,
+                rel_rmse: row.number(rel_rmse)?,
+                max_abs: row.number(max_abs)?,
+                nan_count: row.whole(nan_count)?,
             })
-        })
-        .collect()
+        },
+    )
+}
+
+/// Each distinct item of `items`, in the order they first appear.
+fn first_seen<'a>(items: impl IntoIterator<Item = &'a str>) -> Vec<&'a str> {
+    let mut seen: Vec<&str> = Vec::new();
+    for item in items {
+        if !seen.contains(&item) {
+            seen.push(item);
+        }
+    }
+    seen
+}
+
+/// A Markdown table with a row per scene and a column per preset; `cell` gives each cell's text
+/// (`None`: a dash).
+fn push_grid(
+    md: &mut String,
+    scenes: &[&str],
+    presets: &[&str],
+    cell: impl Fn(&str, &str) -> Option<String>,
+) {
+    md.push_str(&format!("| scene | {} |\n", presets.join(" | ")));
+    md.push_str(&format!("|---|{}\n", "---|".repeat(presets.len())));
+    for scene in scenes {
+        let cells: Vec<String> = presets
+            .iter()
+            .map(|preset| cell(scene, preset).unwrap_or_else(|| "–".into()))
+            .collect();
+        md.push_str(&format!("| {scene} | {} |\n", cells.join(" | ")));
+    }
 }
 
 /// The colour of a preset in the plot.
@@ -188,16 +256,8 @@ pub fn plot(rows: &[Row], truth: &[TruthRow], path: &Path) -> Result<(), String>
             });
         }
     }
-    let mut scenes: Vec<String> = Vec::new();
-    let mut presets: Vec<&str> = Vec::new();
-    for p in &points {
-        if !scenes.contains(&p.scene) {
-            scenes.push(p.scene.clone());
-        }
-        if !presets.contains(&p.preset) {
-            presets.push(p.preset);
-        }
-    }
+    let scenes = first_seen(points.iter().map(|p| p.scene.as_str()));
+    let presets = first_seen(points.iter().map(|p| p.preset));
     let root = SVGBackend::new(path, (800, 560)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| error(&e))?;
     let size = measured
@@ -240,7 +300,7 @@ pub fn plot(rows: &[Row], truth: &[TruthRow], path: &Path) -> Result<(), String>
         chart
             .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
             .map_err(|e| error(&e))?
-            .label(scene.as_str())
+            .label(*scene)
             .legend(move |(x, y)| marker(index, (x + 5, y), BLACK));
     }
     chart
@@ -264,16 +324,9 @@ pub fn performance_md(
     command: &str,
     plot: &str,
 ) -> String {
-    let mut scenes: Vec<&str> = Vec::new();
-    let mut presets: Vec<&str> = Vec::new();
-    for r in rows.iter().filter(|r| !r.preset.starts_with("REFERENCE")) {
-        if !scenes.contains(&r.scene.as_str()) {
-            scenes.push(&r.scene);
-        }
-        if !presets.contains(&r.preset.as_str()) {
-            presets.push(&r.preset);
-        }
-    }
+    let measured = || rows.iter().filter(|r| !r.preset.starts_with("REFERENCE"));
+    let scenes = first_seen(measured().map(|r| r.scene.as_str()));
+    let presets = first_seen(measured().map(|r| r.preset.as_str()));
     let size = rows
         .first()
         .map_or(String::new(), |r| format!("{}×{}", r.width, r.height));
@@ -290,25 +343,17 @@ pub fn performance_md(
          times, to be compared as ratios within this run, not as milliseconds. \
          `examples/bench/main.rs` documents every column.\n\n## Speed against error\n\n"
     );
-    md.push_str(&format!("| scene | {} |\n", presets.join(" | ")));
-    md.push_str(&format!("|---|{}\n", "---|".repeat(presets.len())));
-    for scene in &scenes {
-        let cells: Vec<String> = presets
-            .iter()
-            .map(|preset| {
-                rows.iter()
-                    .find(|r| r.scene == *scene && r.preset == *preset)
-                    .map_or("–".into(), |r| {
-                        format!(
-                            "{:.2} % at {:.1} %",
-                            100.0 * r.rel_rmse,
-                            100.0 * r.time_ratio()
-                        )
-                    })
+    push_grid(&mut md, &scenes, &presets, |scene, preset| {
+        rows.iter()
+            .find(|r| r.scene == scene && r.preset == preset)
+            .map(|r| {
+                format!(
+                    "{:.2} % at {:.1} %",
+                    100.0 * r.rel_rmse,
+                    100.0 * r.time_ratio()
+                )
             })
-            .collect();
-        md.push_str(&format!("| {scene} | {} |\n", cells.join(" | ")));
-    }
+    });
     if !truth.is_empty() {
         push_truth_table(&mut md, truth);
     }
@@ -349,16 +394,8 @@ pub fn performance_md(
 /// The presets against the path-traced truth (`truth.csv`): each scene's relative RMSE and mean
 /// brightness error, and the base-to-top ratio's error.
 fn push_truth_table(md: &mut String, truth: &[TruthRow]) {
-    let mut scenes: Vec<&str> = Vec::new();
-    let mut presets: Vec<&str> = Vec::new();
-    for r in truth {
-        if !scenes.contains(&r.scene.as_str()) {
-            scenes.push(&r.scene);
-        }
-        if !presets.contains(&r.preset.as_str()) {
-            presets.push(&r.preset);
-        }
-    }
+    let scenes = first_seen(truth.iter().map(|r| r.scene.as_str()));
+    let presets = first_seen(truth.iter().map(|r| r.preset.as_str()));
     let jitters = truth.iter().map(|r| r.jitters).max().unwrap_or(1);
     md.push_str(&format!(
         "\n## Against the path-traced truth\n\nEach preset's march of the three cumulus scenes \
@@ -370,26 +407,18 @@ fn push_truth_table(md: &mut String, truth: &[TruthRow]) {
          the last row is the error of the ratio of the base's mean brightness (from below) to \
          the top's (from above).\n\n"
     ));
-    md.push_str(&format!("| scene | {} |\n", presets.join(" | ")));
-    md.push_str(&format!("|---|{}\n", "---|".repeat(presets.len())));
-    for scene in &scenes {
-        let cells: Vec<String> = presets
+    push_grid(md, &scenes, &presets, |scene, preset| {
+        truth
             .iter()
-            .map(|preset| {
-                truth
-                    .iter()
-                    .find(|r| r.scene == *scene && r.preset == *preset)
-                    .map_or("–".into(), |r| {
-                        format!(
-                            "{:.1} % ({:+.1} %)",
-                            100.0 * r.rel_rmse,
-                            100.0 * r.mean_error
-                        )
-                    })
+            .find(|r| r.scene == scene && r.preset == preset)
+            .map(|r| {
+                format!(
+                    "{:.1} % ({:+.1} %)",
+                    100.0 * r.rel_rmse,
+                    100.0 * r.mean_error
+                )
             })
-            .collect();
-        md.push_str(&format!("| {scene} | {} |\n", cells.join(" | ")));
-    }
+    });
     let ratios: Vec<String> = presets
         .iter()
         .map(|preset| {

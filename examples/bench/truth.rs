@@ -91,36 +91,20 @@ pub fn to_csv(rows: &[TruthRow]) -> String {
 
 /// The rows of a `truth.csv` read from `file`; an error names the file and the row.
 pub fn from_csv(file: &Path, text: &str) -> Result<Vec<TruthRow>, String> {
-    let mut lines = text.lines();
-    if lines.next().map(str::trim) != Some(TRUTH_HEADER) {
-        return Err(format!("{}: row 1 is not {TRUTH_HEADER:?}", file.display()));
-    }
-    lines
-        .enumerate()
-        .filter(|(_, line)| !line.trim().is_empty())
-        .map(|(i, line)| {
-            let bad = |what: &str| format!("{}: row {}: {what}", file.display(), i + 2);
-            let fields: Vec<&str> = line.split(',').collect();
-            let [scene, preset, jitters, rel_rmse, mean_error] = fields[..] else {
-                return Err(bad(&format!("{} fields, expected 5", fields.len())));
-            };
-            let number = |text: &str| -> Result<f64, String> {
-                text.parse::<f64>()
-                    .ok()
-                    .filter(|v| v.is_finite())
-                    .ok_or_else(|| bad(&format!("{text:?} is not a number")))
-            };
+    crate::report::read_csv(
+        file,
+        text,
+        TRUTH_HEADER,
+        |row, [scene, preset, jitters, rel_rmse, mean_error]| {
             Ok(TruthRow {
                 scene: scene.to_owned(),
                 preset: preset.to_owned(),
-                jitters: jitters
-                    .parse()
-                    .map_err(|_| bad(&format!("{jitters:?} is not a whole number")))?,
-                rel_rmse: number(rel_rmse)?,
-                mean_error: number(mean_error)?,
+                jitters: row.whole(jitters)?,
+                rel_rmse: row.number(rel_rmse)?,
+                mean_error: row.number(mean_error)?,
             })
-        })
-        .collect()
+        },
+    )
 }
 
 /// The mean brightness of the base (`below`) over the top (`above`) of `preset`, over Mitsuba's,
