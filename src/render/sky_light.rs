@@ -1,21 +1,29 @@
-//! The sky light on the scene under the clouds: every camera with [`VolumetricClouds`] scales its
+//! The sky light on the scene under the clouds: every camera with [`VolumetricClouds`] turns its
 //! Bevy environment and ambient light (`AtmosphereEnvironmentMapLight`, `EnvironmentMapLight`,
-//! `AmbientLight`) by how much diffuse light the clouds above it let through, so a scene under
-//! overcast darkens as a real one does, and not only by losing its direct sun (which the cloud
-//! shadow map dims).
+//! `AmbientLight`) into the light that reaches the ground under the clouds above it, so a scene
+//! under overcast darkens and greys as a real one does, and not only by losing its direct sun
+//! (which the cloud shadow map dims).
 //!
-//! The factor is the diffuse irradiance on a horizontal surface under the layers above the
-//! camera over the clear sky's, `((1 − c) π L + c E_d(τ)) / π L`: `L` the clear sky's radiance
-//! ([`MarchSettings::ambient_top`], luminance), `c` the fraction of the sky the layers cover
-//! (`1 − Π (1 − coverageᵢ)`), `τ` the mean vertical optical depth of the cloudy part (each layer's
-//! extinction times its mean profile density over the part above the camera, weighted by its
-//! coverage) and `E_d` the δ-Eddington diffuse irradiance under a deck of that depth
-//! ([`deck_irradiance`], validated against DISORT), raised by the light the ground reflects and
-//! the deck sends back ([`sky_light_factor`]). Under a thin veil the factor exceeds 1: the
-//! sun's light scattered in the cloud outshines the clear sky's.
+//! The layers above the camera cover a fraction `c` of the sky (`1 − Π (1 − coverageᵢ)`). The
+//! open part still shows the clear sky, so the environment map keeps `1 − c` of its intensity and
+//! its colour. The covered part sends the diffuse light out of the cloud base: `E_d(τ)`, the
+//! δ-Eddington diffuse irradiance under a deck of the mean vertical optical depth `τ` of the
+//! cloudy part ([`deck_irradiance`], validated against DISORT; each layer's extinction times its
+//! mean profile density over the part above the camera, weighted by its coverage), per colour
+//! channel from the sun's and the clear sky's colours, and raised by the light the ground reflects
+//! and the deck sends back. Clouds scatter all colours alike, so that light is the colour of the
+//! sun and sky light falling on the cloud top, not the sky's blue: it goes into the camera's
+//! `AmbientLight` as the radiance `c E_d / π` of a uniform sky. A camera without an environment
+//! map has its ambient light scaled by the ratio of the two irradiances instead
+//! ([`sky_light_factor`]), `((1 − c) π L + c E_d(τ)) / π L` with `L` the clear sky's radiance
+//! ([`MarchSettings::ambient_top`]). Under a thin veil the ratio exceeds 1: the sun's light
+//! scattered in the cloud outshines the clear sky's.
 
 use bevy::{
-    light::{AmbientLight, Atmosphere, AtmosphereEnvironmentMapLight, EnvironmentMapLight},
+    light::{
+        AmbientLight, Atmosphere, AtmosphereEnvironmentMapLight, EnvironmentMapLight,
+        GlobalAmbientLight,
+    },
     prelude::*,
 };
 
@@ -35,21 +43,26 @@ use crate::{
 /// How a camera's sky light follows the clouds above it (see the [module docs](self)); every
 /// camera with [`VolumetricClouds`] has one.
 ///
-/// The light components' values the game sets are the clear sky's: the crate writes them
-/// scaled, and takes a value it did not write as the game's new clear-sky value.
+/// The light components' values the game sets are the clear sky's: the crate writes them for
+/// the clouds, and takes a value it did not write as the game's new clear-sky value. A camera
+/// with an environment map but no `AmbientLight` gets one while clouds cover its sky (the
+/// [`GlobalAmbientLight`] plus the clouds' light), removed again when they clear.
 #[derive(Component, Reflect, Clone, Debug, PartialEq)]
 #[reflect(Component, Default)]
 pub struct CloudSkyLight {
-    /// Scale the camera's environment and ambient light by the clouds above it. Default true;
-    /// turned off, the clear-sky values are put back.
+    /// Turn the camera's environment and ambient light into the light under the clouds above
+    /// it. Default true; turned off, the clear-sky values are put back.
     pub enabled: bool,
-    /// The scale applied this frame (1 without clouds above; read-only, the crate sets it).
+    /// The ratio applied this frame (1 without clouds above; read-only, the crate sets it).
     #[reflect(ignore)]
     factor: f32,
-    /// Per light component (atmosphere environment, environment map, ambient): the clear-sky
-    /// value and the value the crate last wrote.
+    /// Per environment component (atmosphere environment, environment map): the clear-sky
+    /// intensity and the value the crate last wrote.
     #[reflect(ignore)]
-    scaled: [Option<Scaled>; 3],
+    scaled: [Option<Scaled>; 2],
+    /// The ambient light the crate last wrote, and the game's clear-sky value under it.
+    #[reflect(ignore)]
+    ambient: Option<WrittenAmbient>,
 }
 
 impl Default for CloudSkyLight {
@@ -57,14 +70,16 @@ impl Default for CloudSkyLight {
         Self {
             enabled: true,
             factor: 1.0,
-            scaled: [None; 3],
+            scaled: [None; 2],
+            ambient: None,
         }
     }
 }
 
 impl CloudSkyLight {
-    /// The scale applied to the camera's sky light this frame, dimensionless (1 under a clear
-    /// sky, less under thick cloud, more under a thin sunlit veil).
+    /// The diffuse irradiance on a horizontal surface under the clouds above the camera over the
+    /// clear sky's this frame, dimensionless (1 under a clear sky, less under thick cloud, more
+    /// under a thin sunlit veil): [`sky_light_factor`].
     pub fn factor(&self) -> f32 {
         self.factor
     }
@@ -77,18 +92,35 @@ struct Scaled {
     written: f32,
 }
 
+/// An ambient light as colour and brightness (cd/m² once multiplied).
+type Ambient = (Color, f32);
+
+/// The ambient light the crate wrote on a camera, and the game's clear-sky value under it
+/// (`None`: the camera had no `AmbientLight`, the crate inserted one over the global one).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct WrittenAmbient {
+    clear: Option<Ambient>,
+    written: Ambient,
+}
+
+/// The game's clear-sky value of a light field holding `value`, where `slot` holds what the
+/// crate wrote last time (a value it did not write is the game's new clear value).
+fn clear_value(value: f32, slot: Option<Scaled>) -> f32 {
+    match slot {
+        Some(scaled) if scaled.written == value => scaled.clear,
+        _ => value,
+    }
+}
+
 /// The value to write in place of `value` (`None`: leave it): `clear × factor` (`None`:
-/// the clear value, put back), where `value` holds what the crate wrote last time (otherwise the
-/// game set it: its new clear value). A value that is not finite is left alone.
+/// the clear value, put back), the clear value from [`clear_value`]. A value that is not
+/// finite is left alone.
 fn scaled_value(value: f32, slot: &mut Option<Scaled>, factor: Option<f32>) -> Option<f32> {
     if !value.is_finite() {
         *slot = None;
         return None;
     }
-    let clear = match *slot {
-        Some(scaled) if scaled.written == value => scaled.clear,
-        _ => value,
-    };
+    let clear = clear_value(value, *slot);
     let Some(factor) = factor else {
         *slot = None;
         return (clear != value).then_some(clear);
@@ -116,16 +148,40 @@ fn update<T: Component>(
     }
 }
 
-/// The factor of the [module docs](self) for a march's settings and layers (the camera at
+/// The sky light under the layers above a camera ([module docs](self)).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SkyLightUnderClouds {
+    /// Fraction of the sky the layers above the camera cover, 0–1.
+    pub cover: f64,
+    /// The diffuse irradiance on a horizontal surface over the clear sky's, luminance (1 under a
+    /// clear sky).
+    pub factor: f64,
+    /// The covered part's light as the radiance of a uniform sky that puts the same irradiance
+    /// on a horizontal surface, `c E_d / π` with the ground's bounce, per linear RGB channel, in
+    /// the units of [`MarchSettings::sun_illuminance`] per steradian (cd/m² for lux); 0 under a
+    /// clear sky.
+    pub cloud_radiance: [f64; 3],
+}
+
+impl SkyLightUnderClouds {
+    /// A clear sky: nothing covered, factor 1.
+    pub const CLEAR: Self = Self {
+        cover: 0.0,
+        factor: 1.0,
+        cloud_radiance: [0.0; 3],
+    };
+}
+
+/// The sky light of the [module docs](self) for a march's settings and layers (the camera at
 /// [`MarchSettings::camera_altitude_m`]) over a ground of albedo `ground_albedo` (0–1): the light
 /// the ground sends back up is reflected down again by the deck, `1 / (1 − A R)` more, `R` the
-/// deck's reflectance for diffuse light from below, `1 − (4/3) / (4/3 + (1 − g) τ)`. 1 when the
-/// clear sky sends no light.
-pub fn sky_light_factor(
+/// deck's reflectance for diffuse light from below, `1 − (4/3) / (4/3 + (1 − g) τ)`.
+/// [`SkyLightUnderClouds::CLEAR`] when the clear sky sends no light.
+pub fn sky_light_under_clouds(
     settings: &MarchSettings,
     layers: &[MarchLayer],
     ground_albedo: f64,
-) -> f64 {
+) -> SkyLightUnderClouds {
     const SAMPLES: u32 = 16;
     let luminance = |rgb: [f64; 3]| 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
     let altitude = settings.camera_altitude_m;
@@ -154,34 +210,129 @@ pub fn sky_light_factor(
         weights += cover;
     }
     let cover = 1.0 - clear_fraction;
-    let sky = luminance(settings.ambient_top);
-    let clear = std::f64::consts::PI * sky;
+    let clear = std::f64::consts::PI * luminance(settings.ambient_top);
     if clear.is_nan() || clear <= 0.0 || cover.is_nan() || cover <= 0.0 {
-        return 1.0;
+        return SkyLightUnderClouds::CLEAR;
     }
     let phase = eddington_phase(settings);
     let depth = weighted_depth / weights;
-    let under = deck_irradiance(
-        &phase,
-        depth,
-        settings
-            .sun_direction
-            .iter()
-            .zip(settings.camera_up)
-            .map(|(s, u)| s * u)
-            .sum(),
-        luminance(settings.sun_illuminance),
-        sky,
-        0.0,
-    );
+    let mu_sun = settings
+        .sun_direction
+        .iter()
+        .zip(settings.camera_up)
+        .map(|(s, u)| s * u)
+        .sum();
     let one_minus_g = (1.0 - phase.scaled_asymmetry) * (1.0 - phase.forward_fraction);
     let reflectance = 1.0 - (4.0 / 3.0) / (4.0 / 3.0 + one_minus_g * depth);
     let bounce = 1.0 / (1.0 - ground_albedo.clamp(0.0, 1.0) * reflectance).max(1e-3);
-    ((1.0 - cover) * clear + cover * under.diffuse * bounce) / clear
+    let under: [f64; 3] = std::array::from_fn(|c| {
+        deck_irradiance(
+            &phase,
+            depth,
+            mu_sun,
+            settings.sun_illuminance[c],
+            settings.ambient_top[c],
+            0.0,
+        )
+        .diffuse
+            * bounce
+    });
+    SkyLightUnderClouds {
+        cover,
+        factor: ((1.0 - cover) * clear + cover * luminance(under)) / clear,
+        cloud_radiance: under.map(|e| cover * e / std::f64::consts::PI),
+    }
 }
 
-/// The cameras' light components, scaled by [`sky_light_factor`].
+/// The ratio of [`sky_light_under_clouds`]: the diffuse irradiance on a horizontal surface under
+/// the layers over the clear sky's, dimensionless.
+pub fn sky_light_factor(
+    settings: &MarchSettings,
+    layers: &[MarchLayer],
+    ground_albedo: f64,
+) -> f64 {
+    sky_light_under_clouds(settings, layers, ground_albedo).factor
+}
+
+/// The ambient light to write: the game's clear ambient `clear` (colour and brightness) times
+/// `factor`, plus `cloud` (linear RGB radiance, cd/m²), as a colour of luminance 1 and a
+/// brightness (the game's colour at brightness 0 when the sum is black).
+fn ambient_value(clear: Ambient, factor: f32, cloud: Vec3) -> Ambient {
+    let (color, brightness) = clear;
+    let rgb =
+        Vec3::from_array(LinearRgba::from(color).to_f32_array_no_alpha()) * brightness * factor
+            + cloud;
+    let luminance = rgb.dot(Vec3::new(0.2126, 0.7152, 0.0722));
+    if !(luminance > 0.0 && luminance.is_finite()) {
+        return (color, 0.0);
+    }
+    let rgb = rgb / luminance;
+    (Color::linear_rgb(rgb.x, rgb.y, rgb.z), luminance)
+}
+
+/// Writes a camera's ambient light: the game's clear ambient (the camera's own, or the global one
+/// when it has none) times `factor` plus `cloud` (cd/m², linear RGB); `light` `None` puts the
+/// clear value back (removes the ambient light the crate inserted). A camera without an
+/// `AmbientLight` gets one only where `cloud` is not black. A brightness that is not finite is
+/// left alone.
+fn update_ambient(
+    ambient: Option<Mut<AmbientLight>>,
+    global: &GlobalAmbientLight,
+    slot: &mut Option<WrittenAmbient>,
+    light: Option<(f32, Vec3)>,
+    camera: Entity,
+    commands: &mut Commands,
+) {
+    let global_value = (global.color, global.brightness);
+    let Some(mut ambient) = ambient else {
+        // None yet, or the one the crate inserted is not there yet (or the game removed it).
+        *slot = None;
+        let Some((factor, cloud)) = light.filter(|(_, cloud)| *cloud != Vec3::ZERO) else {
+            return;
+        };
+        let written = ambient_value(global_value, factor, cloud);
+        commands.entity(camera).insert(AmbientLight {
+            color: written.0,
+            brightness: written.1,
+            affects_lightmapped_meshes: global.affects_lightmapped_meshes,
+        });
+        *slot = Some(WrittenAmbient {
+            clear: None,
+            written,
+        });
+        return;
+    };
+    let value = (ambient.color, ambient.brightness);
+    if !value.1.is_finite() {
+        *slot = None;
+        return;
+    }
+    let clear = match *slot {
+        Some(written) if written.written == value => written.clear,
+        _ => Some(value),
+    };
+    let Some((factor, cloud)) = light.filter(|(_, cloud)| clear.is_some() || *cloud != Vec3::ZERO)
+    else {
+        *slot = None;
+        match clear {
+            None => {
+                commands.entity(camera).remove::<AmbientLight>();
+            }
+            Some(clear) if clear != value => (ambient.color, ambient.brightness) = clear,
+            Some(_) => {}
+        }
+        return;
+    };
+    let written = ambient_value(clear.unwrap_or(global_value), factor, cloud);
+    *slot = Some(WrittenAmbient { clear, written });
+    if written != value {
+        (ambient.color, ambient.brightness) = written;
+    }
+}
+
+/// The cameras' light components, set by [`sky_light_under_clouds`].
 type LitCamera<'a> = (
+    Entity,
     &'a VolumetricClouds,
     &'a GlobalTransform,
     &'a mut CloudSkyLight,
@@ -191,17 +342,23 @@ type LitCamera<'a> = (
     Option<&'a mut AmbientLight>,
 );
 
-/// Scales each camera's sky light by the clouds above it ([`CloudSkyLight`]).
+/// Sets each camera's sky light for the clouds above it ([`CloudSkyLight`]).
 pub(crate) fn light_the_scene_under_the_clouds(
     world: Option<Res<CloudWorld>>,
+    global_ambient: Option<Res<GlobalAmbientLight>>,
     layers: Query<LayerInputData>,
     lights: Query<(&DirectionalLight, &GlobalTransform, Has<Sun>)>,
     mut cameras: Query<LitCamera>,
+    mut commands: Commands,
 ) {
     let earth = CloudWorld::default();
     let world = world.as_deref().unwrap_or(&earth);
-    for (clouds, camera, mut sky_light, atmosphere, environment, map, ambient) in &mut cameras {
-        let factor = sky_light.enabled.then(|| {
+    let no_ambient = GlobalAmbientLight::NONE;
+    let global_ambient = global_ambient.as_deref().unwrap_or(&no_ambient);
+    for (entity, clouds, camera, mut sky_light, atmosphere, environment, map, ambient) in
+        &mut cameras
+    {
+        let light = sky_light.enabled.then(|| {
             let sun = CloudSun::pick(lights.iter(), atmosphere);
             let (settings, march_layers) = march_inputs(
                 world,
@@ -212,14 +369,46 @@ pub(crate) fn light_the_scene_under_the_clouds(
                 layers.iter(),
                 0,
             );
-            sky_light_factor(&settings, &march_layers, GROUND_ALBEDO) as f32
+            sky_light_under_clouds(&settings, &march_layers, GROUND_ALBEDO)
         });
         let sky_light = sky_light.bypass_change_detection();
-        sky_light.factor = factor.unwrap_or(1.0);
-        let [environment_slot, map_slot, ambient_slot] = &mut sky_light.scaled;
-        update(environment, |l| &mut l.intensity, environment_slot, factor);
-        update(map, |l| &mut l.intensity, map_slot, factor);
-        update(ambient, |l| &mut l.brightness, ambient_slot, factor);
+        sky_light.factor = light.map_or(1.0, |light| light.factor as f32);
+        let [environment_slot, map_slot] = &mut sky_light.scaled;
+        // The environment map's clear intensity scales the clouds' light as it scales the sky's.
+        let environment_intensity = environment
+            .as_deref()
+            .map(|light| clear_value(light.intensity, *environment_slot))
+            .or_else(|| {
+                map.as_deref()
+                    .map(|light| clear_value(light.intensity, *map_slot))
+            })
+            .filter(|intensity| intensity.is_finite());
+        let (environment_factor, ambient_light) = match (light, environment_intensity) {
+            (None, _) => (None, None),
+            (Some(light), Some(intensity)) => (
+                Some((1.0 - light.cover) as f32),
+                Some((
+                    light.factor as f32,
+                    Vec3::from_array(light.cloud_radiance.map(|l| l as f32)) * intensity,
+                )),
+            ),
+            (Some(light), None) => (None, Some((light.factor as f32, Vec3::ZERO))),
+        };
+        update(
+            environment,
+            |l| &mut l.intensity,
+            environment_slot,
+            environment_factor,
+        );
+        update(map, |l| &mut l.intensity, map_slot, environment_factor);
+        update_ambient(
+            ambient,
+            global_ambient,
+            &mut sky_light.ambient,
+            ambient_light,
+            entity,
+            &mut commands,
+        );
     }
 }
 
@@ -296,14 +485,66 @@ mod tests {
     }
 
     #[test]
-    fn a_camera_under_a_deck_gets_its_sky_light_scaled_and_keeps_the_games_values() {
+    fn the_light_under_a_deck_takes_the_colour_of_the_light_on_its_top() {
+        // A blue sky and a white sun: the clear sky's own light is blue, the light out of a
+        // full deck is the mix of sun and sky that falls on its top.
+        let (mut settings, layers) = inputs(&[deck(30.0)], 2.0);
+        settings.ambient_top = [0.03, 0.05, 0.09];
+        let light = sky_light_under_clouds(&settings, &layers, 0.0);
+        assert_eq!(light.cover, 1.0);
+        let blue_over_red = |rgb: [f64; 3]| rgb[2] / rgb[0];
+        let sky = blue_over_red(settings.ambient_top);
+        let mu0 = 40f64.to_radians().cos();
+        let on_top = blue_over_red(std::array::from_fn(|c| {
+            settings.sun_illuminance[c] * mu0 + std::f64::consts::PI * settings.ambient_top[c]
+        }));
+        let under = blue_over_red(light.cloud_radiance);
+        assert!(
+            under < 0.5 * (1.0 + sky) && under > 1.0 && (under / on_top - 1.0).abs() < 0.1,
+            "blue/red under the deck {under}, of the sky {sky}, on the deck's top {on_top}"
+        );
+        // All of the light comes from the deck, and it is the irradiance ratio's.
+        let luminance = |rgb: [f64; 3]| 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+        assert!(
+            (luminance(light.cloud_radiance) / luminance(settings.ambient_top) / light.factor
+                - 1.0)
+                .abs()
+                < 1e-9
+        );
+        assert_eq!(
+            sky_light_under_clouds(&settings, &[], 0.0),
+            SkyLightUnderClouds::CLEAR
+        );
+    }
+
+    /// An app with the sky-light system, a sun and a deck of optical depth 100.
+    fn app_under_a_deck() -> (App, Entity) {
         let mut app = App::new();
         app.add_systems(Update, light_the_scene_under_the_clouds);
-        // Nimbostratus-thick: darker than the clear sky's diffuse light.
-        app.world_mut().spawn(deck(100.0));
+        let deck = app.world_mut().spawn(deck(100.0)).id();
         let sun = Transform::default().looking_to(Vec3::new(0.0, -1.0, 1.0), Vec3::Y);
         app.world_mut()
             .spawn((DirectionalLight::default(), GlobalTransform::from(sun)));
+        (app, deck)
+    }
+
+    fn ambient(app: &App, camera: Entity) -> Option<(Vec3, f32)> {
+        app.world().entity(camera).get::<AmbientLight>().map(|a| {
+            (
+                Vec3::from_array(LinearRgba::from(a.color).to_f32_array_no_alpha()),
+                a.brightness,
+            )
+        })
+    }
+
+    #[test]
+    fn a_camera_with_an_environment_map_takes_the_clouds_light_as_ambient() {
+        let (mut app, deck) = app_under_a_deck();
+        app.insert_resource(GlobalAmbientLight {
+            color: Color::linear_rgb(0.0, 0.0, 1.0),
+            brightness: 10.0,
+            ..GlobalAmbientLight::NONE
+        });
         let camera = app
             .world_mut()
             .spawn((
@@ -313,49 +554,133 @@ mod tests {
                     intensity: 2.0,
                     ..default()
                 },
+            ))
+            .id();
+        let intensity = |app: &App| {
+            app.world()
+                .get::<AtmosphereEnvironmentMapLight>(camera)
+                .unwrap()
+                .intensity
+        };
+        app.update();
+        app.update();
+        let factor = app.world().get::<CloudSkyLight>(camera).unwrap().factor();
+        assert!(
+            factor > 0.0 && factor < 1.0,
+            "factor under the deck {factor}"
+        );
+        // The deck covers the whole sky: no clear sky left in the environment map.
+        assert_eq!(intensity(&app), 0.0);
+        // Its light is in the inserted ambient light, the clear sky's light on the deck's top
+        // (scaled by the map's intensity), over the global ambient scaled by the factor.
+        let (color, brightness) = ambient(&app, camera).expect("ambient light inserted");
+        let rgb = color * brightness;
+        assert!(
+            rgb.x > 0.0 && rgb.z < 10.0 * factor + 1.5 * rgb.x,
+            "ambient under the deck {rgb}"
+        );
+        assert!(rgb.z > 10.0 * factor, "the global ambient is kept: {rgb}");
+        // Written once, not compounded.
+        app.update();
+        assert_eq!(ambient(&app, camera), Some((color, brightness)));
+        assert_eq!(intensity(&app), 0.0);
+        // The deck clears: the map's intensity comes back and the inserted light goes.
+        app.world_mut()
+            .get_mut::<CloudLayer>(deck)
+            .unwrap()
+            .coverage = 0.0;
+        app.update();
+        app.update();
+        assert_eq!(intensity(&app), 2.0);
+        assert_eq!(ambient(&app, camera), None);
+    }
+
+    #[test]
+    fn a_camera_under_a_deck_keeps_the_games_values() {
+        let (mut app, _) = app_under_a_deck();
+        let camera = app
+            .world_mut()
+            .spawn((
+                VolumetricClouds::default(),
+                GlobalTransform::from_translation(Vec3::new(0.0, 2.0, 0.0)),
+                EnvironmentMapLight {
+                    intensity: 2.0,
+                    ..default()
+                },
                 AmbientLight {
                     brightness: f32::NAN,
                     ..default()
                 },
             ))
             .id();
-        let state = |app: &App| {
-            let entity = app.world().entity(camera);
-            (
-                entity.get::<CloudSkyLight>().unwrap().factor(),
-                entity
-                    .get::<AtmosphereEnvironmentMapLight>()
-                    .unwrap()
-                    .intensity,
-                entity.get::<AmbientLight>().unwrap().brightness,
-            )
+        let intensity = |app: &App| {
+            app.world()
+                .get::<EnvironmentMapLight>(camera)
+                .unwrap()
+                .intensity
         };
         app.update();
-        let (factor, intensity, ambient) = state(&app);
+        assert_eq!(intensity(&app), 0.0);
+        let (_, brightness) = ambient(&app, camera).unwrap();
         assert!(
-            factor > 0.0 && factor < 1.0,
-            "factor under the deck {factor}"
+            brightness.is_nan(),
+            "a value that is not finite is left alone"
         );
-        assert_eq!(intensity, 2.0 * factor);
-        assert!(ambient.is_nan(), "a value that is not finite is left alone");
-        // The same frame again: scaled once, not compounded.
-        app.update();
-        assert_eq!(state(&app).1, 2.0 * factor);
-        // The game sets a new clear-sky value: scaled from it.
+        // The game sets a new clear-sky ambient: it is the base the clouds' light adds to.
         app.world_mut()
-            .entity_mut(camera)
-            .get_mut::<AtmosphereEnvironmentMapLight>()
+            .get_mut::<AmbientLight>(camera)
+            .unwrap()
+            .brightness = 0.0;
+        app.update();
+        let (_, with_clouds) = ambient(&app, camera).unwrap();
+        assert!(with_clouds > 0.0);
+        app.update();
+        assert_eq!(
+            ambient(&app, camera).unwrap().1,
+            with_clouds,
+            "not compounded"
+        );
+        // The game sets a new clear-sky intensity: still none of it under a full deck, and back
+        // when turned off, with the game's own ambient light.
+        app.world_mut()
+            .get_mut::<EnvironmentMapLight>(camera)
             .unwrap()
             .intensity = 3.0;
         app.update();
-        assert_eq!(state(&app).1, 3.0 * factor);
-        // Turned off: the clear-sky value comes back.
+        assert_eq!(intensity(&app), 0.0);
         app.world_mut()
-            .entity_mut(camera)
-            .get_mut::<CloudSkyLight>()
+            .get_mut::<CloudSkyLight>(camera)
             .unwrap()
             .enabled = false;
         app.update();
-        assert_eq!(state(&app).1, 3.0);
+        assert_eq!(intensity(&app), 3.0);
+        assert_eq!(ambient(&app, camera).unwrap().1, 0.0);
+    }
+
+    #[test]
+    fn a_camera_without_an_environment_map_has_its_ambient_light_scaled() {
+        let (mut app, _) = app_under_a_deck();
+        let camera = app
+            .world_mut()
+            .spawn((
+                VolumetricClouds::default(),
+                GlobalTransform::from_translation(Vec3::new(0.0, 2.0, 0.0)),
+                AmbientLight {
+                    color: Color::linear_rgb(0.2, 0.4, 1.0),
+                    brightness: 50.0,
+                    ..default()
+                },
+            ))
+            .id();
+        app.update();
+        let factor = app.world().get::<CloudSkyLight>(camera).unwrap().factor();
+        assert!(factor > 0.0 && factor < 1.0);
+        let (color, brightness) = ambient(&app, camera).unwrap();
+        let expected = Vec3::new(0.2, 0.4, 1.0) * 50.0 * factor;
+        assert!(
+            (color * brightness - expected).length() < 1e-3 * expected.length(),
+            "{} against {expected}",
+            color * brightness
+        );
     }
 }
