@@ -255,14 +255,33 @@ pub struct ShaftFactors {
     pub split_altitude_m: f64,
 }
 
-/// One step of the haze march: its sample distance, altitude and extinction, its length, and the
-/// weight of its in-scattered light (transmittance from the start of the haze times the
-/// energy-conserving step integral, per unit source).
+/// One step of the haze march over `[start_m, end_m]`: its sample distance, altitude and optical
+/// thickness, the transmittance from the start of the haze to the step, and the weight of its
+/// in-scattered light (that transmittance times the energy-conserving step integral, per unit
+/// source).
 struct HazeStep {
     t: f64,
     altitude_m: f64,
     optical_depth: f64,
+    start_m: f64,
+    end_m: f64,
+    transmittance: f64,
     weight: f64,
+}
+
+/// The share of a haze step over `[start_m, end_m]` in front of the clouds' distance `split_m`
+/// (0–1; 1 for a split at or beyond the step's end, or NaN). A step the split falls inside is
+/// cut there, so the front haze changes continuously as the clouds' distance moves across it and
+/// does not flip whole steps between front and back with the sample's jitter. WGSL twin:
+/// `front_share`.
+fn front_share(start_m: f64, end_m: f64, split_m: f64) -> f64 {
+    if split_m.is_nan() || split_m >= end_m {
+        1.0
+    } else if split_m <= start_m {
+        0.0
+    } else {
+        (split_m - start_m) / (end_m - start_m)
+    }
 }
 
 /// The `steps` steps of the haze along one view ray (see the module docs), or none where the ray
@@ -299,12 +318,16 @@ fn haze_steps(
             let altitude_m = altitude_along_ray(camera_altitude_m, mu, t, radius);
             let sigma = haze.extinction_at(altitude_m);
             let x = sigma * dt;
-            let weight = (-total_depth).exp() * dt * mean_step_transmittance(x) * sigma;
+            let transmittance = (-total_depth).exp();
+            let weight = transmittance * dt * mean_step_transmittance(x) * sigma;
             total_depth += x;
             HazeStep {
                 t,
                 altitude_m,
                 optical_depth: x,
+                start_m: ta,
+                end_m: tb,
+                transmittance,
                 weight,
             }
         })
@@ -411,12 +434,21 @@ pub fn march_haze(
                 .ground_transmittance(scale(direction, step.t))
                 .unwrap_or(haze.sun_transmittance),
         };
-        let weight = step.weight * haze.albedo;
-        let part = usize::from(step.t >= split_m);
-        for (c, value) in radiance[part].iter_mut().enumerate() {
-            *value += weight * (settings.sun_illuminance[c] * visible * phase + ambient[c]);
+        // The step's front part and its back part, each with its own step integral
+        // `x (1 − e^−x) / x` behind the transmittance up to it.
+        let front = step.optical_depth * front_share(step.start_m, step.end_m, split_m);
+        let parts = [front, step.optical_depth - front];
+        let weights = [
+            step.transmittance * front * mean_step_transmittance(front),
+            step.transmittance * (-front).exp() * parts[1] * mean_step_transmittance(parts[1]),
+        ];
+        for part in 0..2 {
+            let weight = weights[part] * haze.albedo;
+            for (c, value) in radiance[part].iter_mut().enumerate() {
+                *value += weight * (settings.sun_illuminance[c] * visible * phase + ambient[c]);
+            }
+            optical_depth[part] += parts[part];
         }
-        optical_depth[part] += step.optical_depth;
     }
     // The back part's radiance was weighted by the transmittance from the camera; stated
     // relative to the clouds' distance it is divided by the front's transmittance.
@@ -595,6 +627,55 @@ mod tests {
         assert!((seen.radiance[0] - expected).abs() < 1e-9);
     }
 
+    #[test]
+    fn the_front_haze_follows_the_clouds_distance_not_the_jitter() {
+        // Rain-thick haze along a level ray, an opaque cloud 6 km away: the haze in front of it
+        // is the haze of the first 6 km whatever the sample's offset in the step the cloud's
+        // distance falls in, and it grows smoothly as the cloud moves away.
+        let haze = HazeSettings {
+            extinction_per_m: 6.5e-4,
+            scale_height_m: 1.0e7,
+            steps: 12,
+            ..HazeSettings::default()
+        };
+        let settings = MarchSettings::default();
+        let front = |split_m: f64, jitter: f64| {
+            march_haze(
+                &settings,
+                &haze,
+                2.0,
+                UP,
+                [0.0, 0.0, -1.0],
+                100_000.0,
+                split_m,
+                jitter,
+                HazeSun::Mean,
+            )
+            .front
+        };
+        // The uniform medium's closed form: T = e^(−σ d), L ∝ 1 − T.
+        let exact = 1.0 - (-6.5e-4 * 6_000.0_f64).exp();
+        let unit = front(f64::INFINITY, 0.5).radiance[1] / (1.0 - (-6.5e-4 * 100_000.0_f64).exp());
+        for jitter in [0.02, 0.5, 0.98] {
+            let seen = front(6_000.0, jitter);
+            assert!(
+                (seen.radiance[1] / unit / exact - 1.0).abs() < 0.01,
+                "jitter {jitter}: {} against {}",
+                seen.radiance[1] / unit,
+                exact
+            );
+            assert!(
+                (seen.transmittance / (1.0 - exact) - 1.0).abs() < 1e-4,
+                "{} against {}",
+                seen.transmittance,
+                1.0 - exact
+            );
+        }
+        let near = front(5_990.0, 0.5).radiance[1];
+        let far = front(6_010.0, 0.5).radiance[1];
+        assert!(far > near && (far - near) / near < 0.01, "{near} .. {far}");
+    }
+
     /// A 40 km map, 16 texels a side, whose column `i` (from world +x to −x) has the sun's
     /// transmittance `column(i)`; clouds from 1 to 2 km.
     fn column_shadow_map(column: impl Fn(u32) -> f64) -> ShadowMapImage {
@@ -713,7 +794,24 @@ mod tests {
         );
         assert!(factors.below > 0.05 && factors.below < 0.95, "{factors:?}");
         assert_eq!(factors.split_altitude_m, 1000.0);
-        for split in [f64::INFINITY, base_distance] {
+        // The cloud base at the start of the first haze step sampled above it: every step of
+        // each altitude class lies wholly on one side of the clouds.
+        let steps = haze_steps(
+            &settings,
+            &haze,
+            haze.steps,
+            10.0,
+            direction[1],
+            f64::INFINITY,
+            0.3,
+        );
+        let base_step = steps
+            .iter()
+            .find(|step| step.altitude_m >= 1000.0)
+            .unwrap()
+            .start_m;
+        assert!((base_step - base_distance).abs() < 2_000.0);
+        for split in [f64::INFINITY, base_step] {
             let march = |sun| {
                 march_haze(
                     &settings,

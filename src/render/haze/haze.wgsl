@@ -65,14 +65,17 @@ fn haze_active() -> bool {
     return haze.extinction_per_m > 0.0 && haze.scale_height_m > 0.0;
 }
 
-// Step k of the haze march over `span`: sample distance, altitude, optical depth and the
-// step integral `dt (1 - e^-x) / x * sigma` (before the transmittance from the camera).
+// Step k of the haze march over `span`: sample distance, altitude, optical depth, the step
+// integral `dt (1 - e^-x) / x * sigma` (before the transmittance from the camera) and the step's
+// ends.
 // Rust: `haze_steps`.
 struct HazeStep {
     t: f32,
     altitude: f32,
     optical_depth: f32,
     integral: f32,
+    start: f32,
+    end: f32,
 }
 
 fn haze_step(k: u32, n: f32, span: vec2<f32>, h: f32, mu: f32, jitter: f32) -> HazeStep {
@@ -85,7 +88,7 @@ fn haze_step(k: u32, n: f32, span: vec2<f32>, h: f32, mu: f32, jitter: f32) -> H
     let altitude = altitude_along_ray(h, mu, t, clouds.planet_radius_m);
     let sigma = haze.extinction_per_m * exp(-max(altitude, 0.0) / haze.scale_height_m);
     let x = sigma * dt;
-    return HazeStep(t, altitude, x, dt * mean_step_transmittance(x) * sigma);
+    return HazeStep(t, altitude, x, dt * mean_step_transmittance(x) * sigma, ta, tb);
 }
 
 // The light shafts of one view ray: the mean sun transmittance from the cloud shadow map of the
@@ -124,6 +127,18 @@ fn shaft_factors(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter
     return select(mean, clamp(lit / max(weight, vec2<f32>(1e-30)), vec2<f32>(0.0), vec2<f32>(1.0)), weight > vec2<f32>(0.0));
 }
 
+// The share of a haze step over [start, end] in front of the clouds' distance `split` (0-1; 1
+// for a split at or beyond its end, or NaN). Rust: `front_share`.
+fn front_share(start: f32, end: f32, split: f32) -> f32 {
+    if !(split < end) {
+        return 1.0;
+    }
+    if !(split > start) {
+        return 0.0;
+    }
+    return (split - start) / (end - start);
+}
+
 // Marches the haze along one view ray, split at the clouds' distance `split_m`. `shafts` holds
 // the ray's shaft factors below and above the lowest cloud base (both the mean shade without
 // shafts). Rust: `march_haze` (whose docs explain the arguments).
@@ -145,16 +160,16 @@ fn march_haze(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, split_m: 
     var depth_back = 0.0;
     for (var k = 0u; k < steps; k++) {
         let step = haze_step(k, n, span, h, mu, jitter);
-        let weight = exp(-(depth_front + depth_back)) * step.integral * haze.albedo;
         let visible = select(shafts.y, shafts.x, step.altitude < clouds.shadow_map_range_m.x);
         let source = sun * visible + ambient;
-        if step.t >= split_m {
-            radiance_back += weight * source;
-            depth_back += step.optical_depth;
-        } else {
-            radiance_front += weight * source;
-            depth_front += step.optical_depth;
-        }
+        // The step's front part and its back part (Rust: `march_haze`).
+        let before = exp(-(depth_front + depth_back)) * haze.albedo;
+        let front = step.optical_depth * front_share(step.start, step.end, split_m);
+        let back = step.optical_depth - front;
+        radiance_front += before * front * mean_step_transmittance(front) * source;
+        radiance_back += before * exp(-front) * back * mean_step_transmittance(back) * source;
+        depth_front += front;
+        depth_back += back;
     }
     let front_t = exp(-depth_front);
     var back = vec3<f32>(0.0);
