@@ -1,13 +1,16 @@
-//! The sky over the scene: where the sun is for a place and a UTC instant.
+//! The sky over the scene: where the sun and the moon are for a place and a UTC instant.
 //!
 //! - [`solar_position`] implements NREL's Solar Position Algorithm (Reda & Andreas 2004),
 //!   checked against the paper's worked example and against published ephemeris tables; see
 //!   [`solar`].
+//! - [`lunar_position`] gives the moon's direction, distance and illuminated fraction (Meeus
+//!   1998, chapters 47 and 48); see [`moon`].
 //! - A `DirectionalLight` with the [`Sun`] component is aimed from the true solar position for
 //!   the [`GeoOrigin`] at the [`SceneClock`]'s instant, and dims to
 //!   nothing as the sun's disc sets.
 
 pub mod light;
+pub mod moon;
 #[cfg(test)]
 mod pvlib;
 pub mod solar;
@@ -15,6 +18,7 @@ mod sun;
 
 use bevy::prelude::*;
 
+pub use moon::{LunarPosition, lunar_position, lunar_position_unix_seconds};
 pub use solar::{
     Observer, SolarOptions, SolarPosition, direction_enu, estimate_delta_t_s, julian_day,
     solar_position, solar_position_unix_seconds,

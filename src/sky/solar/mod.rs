@@ -175,7 +175,7 @@ fn decimal_year(jd: f64) -> f64 {
 }
 
 /// Brings an angle in degrees into [0, 360).
-fn wrap_degrees(degrees: f64) -> f64 {
+pub(crate) fn wrap_degrees(degrees: f64) -> f64 {
     let wrapped = degrees.rem_euclid(360.0);
     // rem_euclid can round up to exactly 360 for tiny negative inputs.
     if wrapped >= 360.0 { 0.0 } else { wrapped }
@@ -228,7 +228,121 @@ struct Spa {
     observer_hour_angle_deg: f64,
     topocentric_declination_deg: f64,
     topocentric_right_ascension_deg: f64,
+    /// JCE, Julian centuries of Terrestrial Time from J2000.0 (eq. 7).
+    julian_ephemeris_century: f64,
+    /// Apparent sidereal time at Greenwich ν, [0, 360) (eq. 29).
+    apparent_sidereal_time_deg: f64,
+    earth_sun_distance_au: f64,
     position: SolarPosition,
+}
+
+/// What the Earth's frame and the sun are at a Julian day (UT), for the moon
+/// ([`super::moon`]): SPA's time scale, nutation, obliquity, sidereal time and the sun's
+/// apparent geocentric longitude, latitude and distance.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct EarthFrame {
+    /// Julian centuries of Terrestrial Time from J2000.0.
+    pub julian_ephemeris_century: f64,
+    /// Nutation in longitude Δψ, degrees.
+    pub nutation_longitude_deg: f64,
+    /// True obliquity of the ecliptic ε, degrees.
+    pub true_obliquity_deg: f64,
+    /// Apparent sidereal time at Greenwich, degrees, [0, 360).
+    pub apparent_sidereal_time_deg: f64,
+    /// The sun's apparent geocentric longitude, degrees.
+    pub sun_longitude_deg: f64,
+    /// Earth–Sun distance, astronomical units.
+    pub sun_distance_au: f64,
+}
+
+/// [`EarthFrame`] at Julian day `jd` (UT), ΔT from `options` as in [`solar_position`].
+pub(crate) fn earth_frame(jd: f64, options: &SolarOptions) -> EarthFrame {
+    let spa = spa(&Observer::default(), jd, options);
+    EarthFrame {
+        julian_ephemeris_century: spa.julian_ephemeris_century,
+        nutation_longitude_deg: spa.nutation_longitude_deg,
+        true_obliquity_deg: spa.true_obliquity_deg,
+        apparent_sidereal_time_deg: spa.apparent_sidereal_time_deg,
+        sun_longitude_deg: spa.apparent_longitude_deg,
+        sun_distance_au: spa.earth_sun_distance_au,
+    }
+}
+
+/// A body's direction seen from the observer's place on the ellipsoid ([`topocentric`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Topocentric {
+    /// Elevation above the horizon, refracted when the options ask for it, degrees.
+    pub elevation_deg: f64,
+    /// Elevation without refraction, degrees.
+    pub geometric_elevation_deg: f64,
+    /// Azimuth clockwise from north, [0, 360).
+    pub azimuth_deg: f64,
+    /// Topocentric local hour angle, [0, 360).
+    pub hour_angle_deg: f64,
+    /// Topocentric declination, degrees.
+    pub declination_deg: f64,
+    /// Topocentric right ascension, degrees.
+    pub right_ascension_deg: f64,
+}
+
+/// Steps 3.12–3.15 of SPA (eqs. 33–46), which are Meeus's (1998, ch. 40) parallax for any body:
+/// the geocentric right ascension `alpha_deg` and declination `delta_deg` of a body at local hour
+/// angle `hour_angle_deg` and equatorial horizontal parallax `parallax_rad`, seen from `observer`
+/// (ellipsoid: 1 − flattening 0.99664719, equatorial radius 6 378 140 m), with refraction for a
+/// standard atmosphere scaled to the options' pressure and temperature (Bennett's formula as SPA
+/// uses it) when on and the body, of apparent radius `radius_deg`, is not wholly below the
+/// horizon's refraction.
+pub(crate) fn topocentric(
+    observer: &Observer,
+    alpha_deg: f64,
+    delta_deg: f64,
+    hour_angle_deg: f64,
+    parallax_rad: f64,
+    radius_deg: f64,
+    options: &SolarOptions,
+) -> Topocentric {
+    // 3.12 Topocentric right ascension (eqs. 33–38).
+    let xi = parallax_rad;
+    let phi = observer.latitude_deg.to_radians();
+    let u_angle = (0.996_647_19 * phi.tan()).atan();
+    let height_ratio = observer.elevation_m / 6_378_140.0;
+    let x_term = u_angle.cos() + height_ratio * phi.cos();
+    let y_term = 0.996_647_19 * u_angle.sin() + height_ratio * phi.sin();
+    let h_rad = hour_angle_deg.to_radians();
+    let delta_rad = delta_deg.to_radians();
+    let denominator = delta_rad.cos() - x_term * xi.sin() * h_rad.cos();
+    let delta_alpha = (-x_term * xi.sin() * h_rad.sin()).atan2(denominator);
+    let delta_prime =
+        ((delta_rad.sin() - y_term * xi.sin()) * delta_alpha.cos()).atan2(denominator);
+
+    // 3.13 Topocentric local hour angle (eq. 39).
+    let h_prime = h_rad - delta_alpha;
+
+    // 3.14 Topocentric elevation (eqs. 40–44).
+    let e0 = (phi.sin() * delta_prime.sin() + phi.cos() * delta_prime.cos() * h_prime.cos())
+        .asin()
+        .to_degrees();
+    let delta_e = if options.refraction && e0 >= -(radius_deg + HORIZON_REFRACTION_DEG) {
+        (options.pressure_hpa / 1010.0) * (283.0 / (273.0 + options.temperature_c)) * 1.02
+            / (60.0 * (e0 + 10.3 / (e0 + 5.11)).to_radians().tan())
+    } else {
+        0.0
+    };
+
+    // 3.15 Topocentric azimuth (eqs. 45–46), converted from astronomers' (westward from south)
+    // to navigators' (clockwise from north).
+    let gamma = h_prime
+        .sin()
+        .atan2(h_prime.cos() * phi.sin() - delta_prime.tan() * phi.cos())
+        .to_degrees();
+    Topocentric {
+        elevation_deg: e0 + delta_e,
+        geometric_elevation_deg: e0,
+        azimuth_deg: wrap_degrees(gamma + 180.0),
+        hour_angle_deg: wrap_degrees(h_prime.to_degrees()),
+        declination_deg: delta_prime.to_degrees(),
+        right_ascension_deg: alpha_deg + delta_alpha.to_degrees(),
+    }
 }
 
 /// The algorithm, steps 3.1–3.15 of the paper, at Julian day `jd` (UT).
@@ -312,45 +426,20 @@ fn spa(observer: &Observer, jd: f64, options: &SolarOptions) -> Spa {
     // 3.11 Observer local hour angle (eq. 32), longitude east positive.
     let hour_angle = wrap_degrees(nu + observer.longitude_deg - alpha);
 
-    // 3.12 Topocentric right ascension (eqs. 33–38): parallax of the observer's position on the
-    // ellipsoid (0.99664719 = 1 − flattening; 6378140 m = equatorial radius).
-    let xi = (8.794 / (3600.0 * r)).to_radians();
-    let phi = observer.latitude_deg.to_radians();
-    let u_angle = (0.996_647_19 * phi.tan()).atan();
-    let height_ratio = observer.elevation_m / 6_378_140.0;
-    let x_term = u_angle.cos() + height_ratio * phi.cos();
-    let y_term = 0.996_647_19 * u_angle.sin() + height_ratio * phi.sin();
-    let h_rad = hour_angle.to_radians();
-    let delta_rad = delta.to_radians();
-    let denominator = delta_rad.cos() - x_term * xi.sin() * h_rad.cos();
-    let delta_alpha = (-x_term * xi.sin() * h_rad.sin()).atan2(denominator);
-    let alpha_prime = alpha + delta_alpha.to_degrees();
-    let delta_prime =
-        ((delta_rad.sin() - y_term * xi.sin()) * delta_alpha.cos()).atan2(denominator);
-
-    // 3.13 Topocentric local hour angle (eq. 39).
-    let h_prime = h_rad - delta_alpha;
-
-    // 3.14 Topocentric zenith angle (eqs. 40–44), with refraction for a standard atmosphere
-    // scaled to the given pressure and temperature (Bennett's formula as used by SPA).
-    let e0 = (phi.sin() * delta_prime.sin() + phi.cos() * delta_prime.cos() * h_prime.cos())
-        .asin()
-        .to_degrees();
-    let delta_e = if options.refraction && e0 >= -(SUN_RADIUS_DEG + HORIZON_REFRACTION_DEG) {
-        (options.pressure_hpa / 1010.0) * (283.0 / (273.0 + options.temperature_c)) * 1.02
-            / (60.0 * (e0 + 10.3 / (e0 + 5.11)).to_radians().tan())
-    } else {
-        0.0
-    };
-    let elevation = e0 + delta_e;
-
-    // 3.15 Topocentric azimuth (eqs. 45–46), converted from astronomers' (westward from south)
-    // to navigators' (clockwise from north).
-    let gamma = h_prime
-        .sin()
-        .atan2(h_prime.cos() * phi.sin() - delta_prime.tan() * phi.cos())
-        .to_degrees();
-    let azimuth = wrap_degrees(gamma + 180.0);
+    let seen = topocentric(
+        observer,
+        alpha,
+        delta,
+        hour_angle,
+        (8.794 / (3600.0 * r)).to_radians(),
+        SUN_RADIUS_DEG,
+        options,
+    );
+    let (elevation, e0, azimuth) = (
+        seen.elevation_deg,
+        seen.geometric_elevation_deg,
+        seen.azimuth_deg,
+    );
 
     Spa {
         heliocentric_longitude_deg: l,
@@ -360,8 +449,11 @@ fn spa(observer: &Observer, jd: f64, options: &SolarOptions) -> Spa {
         true_obliquity_deg: epsilon,
         apparent_longitude_deg: lambda,
         observer_hour_angle_deg: hour_angle,
-        topocentric_declination_deg: delta_prime.to_degrees(),
-        topocentric_right_ascension_deg: alpha_prime,
+        topocentric_declination_deg: seen.declination_deg,
+        topocentric_right_ascension_deg: seen.right_ascension_deg,
+        julian_ephemeris_century: jce,
+        apparent_sidereal_time_deg: wrap_degrees(nu),
+        earth_sun_distance_au: r,
         position: SolarPosition {
             zenith_deg: 90.0 - elevation,
             elevation_deg: elevation,
@@ -370,7 +462,7 @@ fn spa(observer: &Observer, jd: f64, options: &SolarOptions) -> Spa {
             declination_deg: delta,
             right_ascension_deg: alpha,
             greenwich_hour_angle_deg: wrap_degrees(nu - alpha),
-            hour_angle_deg: wrap_degrees(h_prime.to_degrees()),
+            hour_angle_deg: seen.hour_angle_deg,
             earth_sun_distance_au: r,
         },
     }
