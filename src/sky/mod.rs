@@ -7,7 +7,8 @@
 //!   1998, chapters 47 and 48); see [`moon`].
 //! - A `DirectionalLight` with the [`Sun`] component is aimed from the true solar position for
 //!   the [`GeoOrigin`] at the [`SceneClock`]'s instant, and dims to
-//!   nothing as the sun's disc sets.
+//!   nothing as the sun's disc sets; then it is the moon's light, aimed from the moon with its
+//!   illuminance for the phase, until the moon sets or the sun rises.
 
 pub mod light;
 pub mod moon;
@@ -23,7 +24,10 @@ pub use solar::{
     Observer, SolarOptions, SolarPosition, direction_enu, estimate_delta_t_s, julian_day,
     solar_position, solar_position_unix_seconds,
 };
-pub use sun::{Sun, SunPosition, sun_direction_scene, sun_visibility};
+pub use sun::{
+    MoonPosition, Sun, SunPosition, moon_direction_scene, sun_direction_scene, sun_or_moon_light,
+    sun_visibility,
+};
 
 use crate::{
     CloudscapeSystems,
@@ -39,6 +43,7 @@ impl Plugin for SkyPlugin {
         app.init_resource::<SceneClock>()
             .init_resource::<GeoOrigin>()
             .init_resource::<SunPosition>()
+            .init_resource::<MoonPosition>()
             .register_type::<SceneClock>()
             .register_type::<GeoOrigin>()
             .register_type::<Sun>()

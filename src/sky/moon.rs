@@ -27,6 +27,8 @@ pub struct LunarPosition {
     pub distance_km: f64,
     /// Fraction of the moon's disc that the sun lights, 0 (new) to 1 (full).
     pub illuminated_fraction: f64,
+    /// The phase angle, sun–moon–Earth, degrees: 0 at full moon, 180 at new moon.
+    pub phase_angle_deg: f64,
     /// Whether the lit fraction is growing (new to full moon).
     pub waxing: bool,
 }
@@ -43,6 +45,22 @@ impl LunarPosition {
     #[must_use]
     pub fn radius_deg(&self) -> f64 {
         (MOON_RADIUS_KM / self.distance_km).asin().to_degrees()
+    }
+
+    /// The moon's illuminance above the atmosphere on a surface facing it, lux: about 0.31 at
+    /// full moon, a tenth of that at the quarters, 0 at new moon. Its visual magnitude at the
+    /// mean distance is `−12.73 + 0.026 |α| + 4·10⁻⁹ α⁴` for the phase angle `α` in degrees
+    /// (Krisciunas & Schaefer 1991, "A model of the brightness of moonlight", eq. 9, after
+    /// Allen 1973), the illuminance `10^(−0.4 (m + 16.57))` foot-candles (their eq. 8; 10.764
+    /// lux each), and it falls with the square of the distance.
+    #[must_use]
+    pub fn illuminance_lux(&self) -> f64 {
+        const LUX_PER_FOOT_CANDLE: f64 = 10.764;
+        const MEAN_DISTANCE_KM: f64 = 384_400.0;
+        let alpha = self.phase_angle_deg.abs().min(180.0);
+        let magnitude = -12.73 + 0.026 * alpha + 4.0e-9 * alpha.powi(4);
+        let mean = LUX_PER_FOOT_CANDLE * 10f64.powf(-0.4 * (magnitude + 16.57));
+        mean * (MEAN_DISTANCE_KM / self.distance_km).powi(2)
     }
 }
 
@@ -341,6 +359,7 @@ pub fn lunar_position_unix_seconds(
         azimuth_deg: seen.azimuth_deg,
         distance_km,
         illuminated_fraction: 0.5 * (1.0 + phase_angle.cos()),
+        phase_angle_deg: phase_angle.to_degrees(),
         waxing: wrap_degrees(from_sun.to_degrees()) < 180.0,
     }
 }

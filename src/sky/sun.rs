@@ -1,26 +1,37 @@
-//! Places the scene's sun where it really is for the scene's place and time.
+//! Places the scene's sun where it really is for the scene's place and time, and the moon once
+//! the sun has set.
 
 use bevy::{light::light_consts::lux, prelude::*};
 
-use super::solar::{Observer, SolarOptions, SolarPosition, solar_position_unix_seconds};
+use super::{
+    moon::{LunarPosition, lunar_position_unix_seconds},
+    solar::{Observer, SolarOptions, SolarPosition, solar_position_unix_seconds},
+};
 use crate::scene::{GeoOrigin, SceneClock};
 
 /// Put on a `DirectionalLight` to have the crate aim it from the sun's true position for the
 /// [`GeoOrigin`] (or [`GeoOrigin::default`], Bern, without one) at the [`SceneClock`] time, and
-/// set its illuminance.
+/// set its illuminance. Once the sun's disc has set, the light is the moon's (with
+/// [`Sun::moonlight`]): aimed from the moon, its illuminance the moon's for its phase and
+/// distance, so the clouds, their shadows and the ground are moonlit at night.
 #[derive(Component, Debug, Clone, Copy, PartialEq, Reflect)]
 #[reflect(Component, Default)]
 pub struct Sun {
     /// Illuminance with the sun fully above the horizon, lux. Default
     /// `lux::RAW_SUNLIGHT` (sunlight above the atmosphere), right for Bevy's `Atmosphere`, which
-    /// attenuates the light itself.
+    /// attenuates the light itself. The moonlight is scaled with it: the moon's illuminance
+    /// above the atmosphere ([`LunarPosition::illuminance_lux`], about 0.31 lux at full moon)
+    /// times `illuminance_lux / lux::RAW_SUNLIGHT`.
     pub illuminance_lux: f32,
+    /// Light the scene from the moon while the sun is down (and the moon up). Default true.
+    pub moonlight: bool,
 }
 
 impl Default for Sun {
     fn default() -> Self {
         Self {
             illuminance_lux: lux::RAW_SUNLIGHT,
+            moonlight: true,
         }
     }
 }
@@ -29,12 +40,26 @@ impl Default for Sun {
 #[derive(Resource, Debug, Clone, Copy, Default)]
 pub struct SunPosition(pub Option<SolarPosition>);
 
+/// Where the moon is now and how much of it is lit, updated every frame in
+/// [`crate::CloudscapeSystems::Sun`].
+#[derive(Resource, Debug, Clone, Copy, Default)]
+pub struct MoonPosition(pub Option<LunarPosition>);
+
+/// Unit vector toward the moon in scene space (+X east, +Y up, −Z north).
+pub fn moon_direction_scene(position: &LunarPosition) -> Vec3 {
+    scene_direction(position.direction_enu())
+}
+
 /// Angular radius of the sun's disc, degrees: the light fades while the disc crosses the horizon.
 const SUN_ANGULAR_RADIUS_DEG: f64 = 0.267;
 
 /// Unit vector toward the sun in scene space (+X east, +Y up, −Z north).
 pub fn sun_direction_scene(position: &SolarPosition) -> Vec3 {
-    let [east, north, up] = position.direction_enu();
+    scene_direction(position.direction_enu())
+}
+
+/// An East-North-Up direction in scene space.
+fn scene_direction([east, north, up]: [f64; 3]) -> Vec3 {
     Vec3::new(east as f32, up as f32, -north as f32).normalize()
 }
 
@@ -45,31 +70,51 @@ pub fn sun_visibility(elevation_deg: f64) -> f32 {
         as f32
 }
 
+/// The light of a [`Sun`] light while the sun is at `solar` and the moon at `lunar`: the unit
+/// vector toward the body in scene space and the illuminance, lux. The sun while any of its disc
+/// is up; then the moon (with [`Sun::moonlight`]) while any of its disc is up; otherwise the
+/// sun's direction and no light.
+pub fn sun_or_moon_light(sun: &Sun, solar: &SolarPosition, lunar: &LunarPosition) -> (Vec3, f32) {
+    let sun_light = sun_visibility(solar.elevation_deg);
+    let moon_light = if sun.moonlight && sun_light <= 0.0 {
+        sun_visibility(lunar.elevation_deg)
+    } else {
+        0.0
+    };
+    if moon_light > 0.0 {
+        let scale = f64::from(sun.illuminance_lux) / f64::from(lux::RAW_SUNLIGHT);
+        let illuminance = lunar.illuminance_lux() * scale * f64::from(moon_light);
+        return (moon_direction_scene(lunar), illuminance as f32);
+    }
+    (sun_direction_scene(solar), sun.illuminance_lux * sun_light)
+}
+
 pub(crate) fn place_sun(
     clock: Res<SceneClock>,
     origin: Option<Res<GeoOrigin>>,
     mut position: ResMut<SunPosition>,
+    mut moon: ResMut<MoonPosition>,
     mut suns: Query<(&Sun, &mut Transform, &mut DirectionalLight)>,
 ) {
     let origin = origin.map_or_else(GeoOrigin::default, |origin| *origin);
-    let solar = solar_position_unix_seconds(
-        &Observer::from(&origin),
-        clock.unix_seconds(),
-        &SolarOptions::default(),
-    );
+    let observer = Observer::from(&origin);
+    let options = SolarOptions::default();
+    let solar = solar_position_unix_seconds(&observer, clock.unix_seconds(), &options);
+    let lunar = lunar_position_unix_seconds(&observer, clock.unix_seconds(), &options);
     position.0 = Some(solar);
-    let toward_sun = sun_direction_scene(&solar);
-    let up = if toward_sun.y.abs() > 0.999 {
-        Vec3::NEG_Z
-    } else {
-        Vec3::Y
-    };
+    moon.0 = Some(lunar);
     for (sun, mut transform, mut light) in &mut suns {
-        // A directional light shines along its forward (-Z) axis, away from the sun. Only the
+        let (toward, illuminance) = sun_or_moon_light(sun, &solar, &lunar);
+        let up = if toward.y.abs() > 0.999 {
+            Vec3::NEG_Z
+        } else {
+            Vec3::Y
+        };
+        // A directional light shines along its forward (-Z) axis, away from the body. Only the
         // rotation is set: translation and scale place the cloud-shadow texture
         // (`render::shadow`) and do not affect the light.
-        transform.rotation = Transform::default().looking_to(-toward_sun, up).rotation;
-        light.illuminance = sun.illuminance_lux * sun_visibility(solar.elevation_deg);
+        transform.rotation = Transform::default().looking_to(-toward, up).rotation;
+        light.illuminance = illuminance;
     }
 }
 
@@ -92,6 +137,57 @@ mod tests {
         assert!(d.z > 0.0, "south is +Z: {d}");
         assert!((d.y - (p.elevation_deg.to_radians().sin() as f32)).abs() < 1e-5);
         assert!((p.elevation_deg - 66.5).abs() < 0.3, "{}", p.elevation_deg);
+    }
+
+    /// The light of a default [`Sun`] at Bern at `unix_seconds`, and the sun and moon there.
+    fn light_at(sun: &Sun, unix_seconds: f64) -> ((Vec3, f32), SolarPosition, LunarPosition) {
+        let bern = Observer::from(&GeoOrigin::default());
+        let options = SolarOptions::default();
+        let solar = solar_position_unix_seconds(&bern, unix_seconds, &options);
+        let lunar = lunar_position_unix_seconds(&bern, unix_seconds, &options);
+        (sun_or_moon_light(sun, &solar, &lunar), solar, lunar)
+    }
+
+    #[test]
+    fn the_moon_lights_the_night_and_the_sun_the_day() {
+        let sun = Sun::default();
+        // Full moon over Bern, 2024-04-24 00:00 UTC: the moon about 25° up in the south.
+        let ((toward, illuminance), solar, lunar) = light_at(&sun, 1_713_916_800.0);
+        assert!(solar.elevation_deg < -10.0 && lunar.elevation_deg > 10.0);
+        assert!(toward.dot(moon_direction_scene(&lunar)) > 0.999_999);
+        // Full moonlight above the atmosphere: about 0.3 lux (Krisciunas & Schaefer 1991).
+        assert!(
+            (0.25..0.4).contains(&illuminance),
+            "full moon {illuminance} lux"
+        );
+        // The same night without moonlight: dark.
+        let dark = Sun {
+            moonlight: false,
+            ..sun
+        };
+        assert_eq!(light_at(&dark, 1_713_916_800.0).0.1, 0.0);
+        // A dimmer sun setting dims the moon in proportion.
+        let dim = Sun {
+            illuminance_lux: lux::RAW_SUNLIGHT / 2.0,
+            ..sun
+        };
+        assert!((light_at(&dim, 1_713_916_800.0).0.1 / illuminance - 0.5).abs() < 1e-5);
+        // The first quarter moon of 2024-04-15, that evening at 21:00 UTC, gives about a tenth
+        // of the full moon's light (the phase law).
+        let ((_, quarter), solar, lunar) = light_at(&sun, 1_713_214_800.0);
+        assert!(solar.elevation_deg < -10.0 && lunar.elevation_deg > 10.0);
+        assert!(
+            (0.4..0.7).contains(&lunar.illuminated_fraction),
+            "{lunar:?}"
+        );
+        assert!(
+            quarter > 0.05 * illuminance && quarter < 0.2 * illuminance,
+            "{quarter}"
+        );
+        // By day the sun: noon at the June solstice.
+        let ((toward, illuminance), solar, _) = light_at(&sun, 1_624_275_000.0);
+        assert!(toward.dot(sun_direction_scene(&solar)) > 0.999_999);
+        assert_eq!(illuminance, lux::RAW_SUNLIGHT);
     }
 
     #[test]
