@@ -20,6 +20,8 @@ pub(crate) struct BernOptions {
     pub(crate) ev100: f32,
     /// Cast cloud shadows on the terrain.
     pub(crate) cloud_shadows: bool,
+    /// Whether the camera's sky light follows the clouds above it (`CloudSkyLight`).
+    pub(crate) sky_light: bool,
     /// Log frame and render-pass times every second.
     pub(crate) log_frame_times: bool,
     /// Render clouds (false: the camera has no `VolumetricClouds`).
@@ -86,6 +88,9 @@ pub(crate) struct Cli {
     /// No clouds (the camera has no `VolumetricClouds`).
     #[arg(long)]
     pub(crate) no_clouds: bool,
+    /// The camera's sky light stays the clear sky's (`CloudSkyLight` off).
+    #[arg(long)]
+    pub(crate) no_sky_light: bool,
     /// Log frame and render-pass times every second.
     #[arg(long)]
     pub(crate) log_frame_times: bool,
@@ -142,6 +147,7 @@ impl Cli {
             }),
             ev100: self.ev100,
             cloud_shadows: !self.no_cloud_shadows,
+            sky_light: !self.no_sky_light,
             log_frame_times: self.log_frame_times,
             clouds: !self.no_clouds,
             azimuth_deg: self.azimuth,

@@ -70,6 +70,11 @@ pub(crate) fn spawn_scene(
             IsDefaultUiCamera,
         ))
         .id();
+    if !options.sky_light {
+        commands
+            .entity(camera)
+            .insert(bevy_cloudscape::render::sky_light::CloudSkyLight::disabled());
+    }
     if !options.clouds {
         // The depth prepass and HDR that `VolumetricClouds` brought stay: only the clouds go.
         commands.entity(camera).remove::<VolumetricClouds>();

@@ -77,6 +77,15 @@ impl Default for CloudSkyLight {
 }
 
 impl CloudSkyLight {
+    /// Off: the camera keeps the clear-sky values its game sets (what `enabled: false` gives).
+    #[must_use]
+    pub fn disabled() -> Self {
+        Self {
+            enabled: false,
+            ..Self::default()
+        }
+    }
+
     /// The diffuse irradiance on a horizontal surface under the clouds above the camera over the
     /// clear sky's this frame, dimensionless (1 under a clear sky, less under thick cloud, more
     /// under a thin sunlit veil): [`sky_light_factor`].
