@@ -187,8 +187,7 @@ fn add_background(ray: ptr<function, MarchRay>, t_end: f32) {
     if t_end < FAR_AWAY {
         let altitude = ray_altitude(ray, t_end);
         for (var i = 0u; i < cloud_layer_count(); i++) {
-            let layer = cloud_layers[i];
-            inside = inside || (layer_is_active(layer) && altitude >= layer.base_m && altitude <= layer.top_m);
+            inside = inside || (layer_is_active(i) && altitude >= cloud_layers[i].base_m && altitude <= cloud_layers[i].top_m);
         }
     }
     if inside {
@@ -237,19 +236,18 @@ fn ray_medium(ray: ptr<function, MarchRay>, t: f32) -> Medium {
     var medium = Medium(0.0, 0.0, 0.0, 0.0, vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
     let count = cloud_layer_count();
     for (var i = 0u; i < count; i++) {
-        let layer = cloud_layers[i];
         let sigma = layer_density(i, horizontal, altitude, footprint, true);
         if sigma > 0.0 {
-            let sigma_s = sigma * scattering_albedo(layer);
+            let sigma_s = sigma * scattering_albedo(i);
             // Ambient sky light grows from the base to the top (Pérez Martín 2022, "Day / Night Cycle").
-            let height = saturate((altitude - layer.base_m) / (layer.top_m - layer.base_m));
-            medium.ambient += sigma_s * mix(clouds.ambient_bottom.xyz * layer.sky_light_bottom.xyz, clouds.ambient_top.xyz * layer.sky_light_top.xyz, height);
-            medium.sky_light_top += sigma_s * layer.sky_light_top.xyz;
-            medium.sky_light_bottom += sigma_s * layer.sky_light_bottom.xyz;
+            let height = saturate((altitude - cloud_layers[i].base_m) / (cloud_layers[i].top_m - cloud_layers[i].base_m));
+            medium.ambient += sigma_s * mix(clouds.ambient_bottom.xyz * cloud_layers[i].sky_light_bottom.xyz, clouds.ambient_top.xyz * cloud_layers[i].sky_light_top.xyz, height);
+            medium.sky_light_top += sigma_s * cloud_layers[i].sky_light_top.xyz;
+            medium.sky_light_bottom += sigma_s * cloud_layers[i].sky_light_bottom.xyz;
             medium.extinction += sigma;
             medium.scattering += sigma_s;
             // The column of a cloud at full density above and below (Rust: `Ray::medium`).
-            let full = layer.extinction * (layer.top_m - layer.base_m);
+            let full = cloud_layers[i].extinction * (cloud_layers[i].top_m - cloud_layers[i].base_m);
             let below = profile_column(i, height);
             medium.column_above += full * (profile_column(i, 1.0) - below);
             medium.column_below += full * below;

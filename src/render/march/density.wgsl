@@ -7,7 +7,7 @@
 // same name there (f64 there, f32 here), and each points at the other; its module docs explain
 // the model.
 
-#import bevy_cloudscape::cloud_parameters::{CloudLayerGpu, MAX_PROFILE_POINTS, cloud_layers}
+#import bevy_cloudscape::cloud_parameters::{MAX_PROFILE_POINTS, cloud_layers}
 #import bevy_cloudscape::cloud_textures::{
     base_noise, detail_noise, growth_cover, sample_base_noise, sample_detail_noise, weather_noise,
 }
@@ -152,20 +152,20 @@ fn texture_lod(footprint_m: f32, texel_m: f32) -> f32 {
 // Local coverage of weather texel `texel` (not wrapped): `local_coverage` of its coverage channel
 // and of the layer coverage at the texel centre. The weather-map pass stores exactly this.
 // Rust: `weather_texel_coverage`.
-fn weather_texel_coverage(layer: CloudLayerGpu, texel: vec2<i32>) -> f32 {
+fn weather_texel_coverage(index: u32, texel: vec2<i32>) -> f32 {
     let size = vec2<i32>(textureDimensions(weather_noise));
-    let texel_m = layer.weather_scale_m / f32(size.x);
-    let centre = (vec2<f32>(texel) + 0.5) * texel_m - layer.weather_offset_m.xy;
-    let coverage = layer_coverage(layer, centre);
+    let texel_m = cloud_layers[index].weather_scale_m / f32(size.x);
+    let centre = (vec2<f32>(texel) + 0.5) * texel_m - cloud_layers[index].weather_offset_m.xy;
+    let coverage = layer_coverage(index, centre);
     if coverage >= 1.0 {
         return 1.0;
     }
     let wrapped = wrap_texel(texel, size);
-    if layer.growth.x > 0.0 {
+    if cloud_layers[index].growth.x > 0.0 {
         // The automaton's column under the texel (Rust: `LayerGrowth::cover_at`).
-        let columns = vec2<u32>(layer.growth.zw);
+        let columns = vec2<u32>(cloud_layers[index].growth.zw);
         let column = min((vec2<u32>(wrapped) * columns) / vec2<u32>(size), columns - 1u);
-        let cover = textureLoad(growth_cover, vec2<i32>(column), i32(layer.growth.y), 0).x;
+        let cover = textureLoad(growth_cover, vec2<i32>(column), i32(cloud_layers[index].growth.y), 0).x;
         return growth_coverage(coverage, cover);
     }
     return local_coverage(coverage, textureLoad(weather_noise, wrapped, 0).x);
@@ -186,10 +186,10 @@ fn growth_coverage(coverage: f32, cover: f32) -> f32 {
 
 // The skewed weather look-up in texel units, texel centres at integers:
 // (horizontal + offset + skew * height) / scale * size - 0.5. Rust: `weather_look_up`.
-fn weather_look_up(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_base_m: f32) -> vec2<f32> {
+fn weather_look_up(index: u32, horizontal_m: vec2<f32>, height_above_base_m: f32) -> vec2<f32> {
     let size = f32(textureDimensions(weather_noise).x);
-    let uv = (horizontal_m + layer.weather_offset_m.xy + layer.weather_offset_m.zw * height_above_base_m)
-        / layer.weather_scale_m;
+    let uv = (horizontal_m + cloud_layers[index].weather_offset_m.xy + cloud_layers[index].weather_offset_m.zw * height_above_base_m)
+        / cloud_layers[index].weather_scale_m;
     return uv * size - 0.5;
 }
 
@@ -200,12 +200,12 @@ fn weather_look_up(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_b
 // the shape warp in shape periods, the same filter of `texel_shape_warp`; w is 1 where the
 // march read the four texels from its weather map, 0 where it computed them (outside the map,
 // and in the passes that bind none). Rust: `weather_coverage` and `shape_warp`.
-fn weather_sample(layer: CloudLayerGpu, x: vec2<f32>) -> vec4<f32> {
+fn weather_sample(index: u32, x: vec2<f32>) -> vec4<f32> {
     let cell = floor(x);
     let weight = x - cell;
     let texel = vec2<i32>(cell);
 #ifdef WEATHER_MAP
-    let map = layer.weather_map;
+    let map = cloud_layers[index].weather_map;
     let local = texel - vec2<i32>(map.xy);
     let last = i32(map.w) - 2;
     if map.w >= 2.0 && all(local >= vec2<i32>(0)) && all(local <= vec2<i32>(last)) {
@@ -217,18 +217,18 @@ fn weather_sample(layer: CloudLayerGpu, x: vec2<f32>) -> vec4<f32> {
         return vec4<f32>(mix(mix(t00, t10, weight.x), mix(t01, t11, weight.x), weight.y), 1.0);
     }
 #endif
-    let k00 = weather_texel_coverage(layer, texel);
-    let k10 = weather_texel_coverage(layer, texel + vec2<i32>(1, 0));
-    let k01 = weather_texel_coverage(layer, texel + vec2<i32>(0, 1));
-    let k11 = weather_texel_coverage(layer, texel + vec2<i32>(1, 1));
+    let k00 = weather_texel_coverage(index, texel);
+    let k10 = weather_texel_coverage(index, texel + vec2<i32>(1, 0));
+    let k01 = weather_texel_coverage(index, texel + vec2<i32>(0, 1));
+    let k11 = weather_texel_coverage(index, texel + vec2<i32>(1, 1));
     let kappa = mix(mix(k00, k10, weight.x), mix(k01, k11, weight.x), weight.y);
     return vec4<f32>(kappa, 0.0, 0.0, 0.0);
 }
 
 // Local coverage of a layer at `horizontal_m`, `height_above_base_m` up (`weather_sample`).
 // Rust: `weather_coverage`.
-fn weather_coverage(layer: CloudLayerGpu, horizontal_m: vec2<f32>, height_above_base_m: f32) -> f32 {
-    return weather_sample(layer, weather_look_up(layer, horizontal_m, height_above_base_m)).x;
+fn weather_coverage(index: u32, horizontal_m: vec2<f32>, height_above_base_m: f32) -> f32 {
+    return weather_sample(index, weather_look_up(index, horizontal_m, height_above_base_m)).x;
 }
 
 // The weather noise's curl (B, A) as 2c - 1 per axis, filtered bilinearly from texel loads at
@@ -250,18 +250,18 @@ fn curl_look_up(x: vec2<f32>) -> vec2<f32> {
 // weather look-up `x` (`weather_look_up`): the skewed horizontal point of `x` plus the warp
 // offset, over BROAD_WARP_PERIODS shape periods. Affine in `x`, axis by axis. Rust:
 // `broad_look_up`.
-fn broad_look_up(layer: CloudLayerGpu, x: vec2<f32>) -> vec2<f32> {
+fn broad_look_up(index: u32, x: vec2<f32>) -> vec2<f32> {
     let size = f32(textureDimensions(weather_noise).x);
-    let skewed_m = (x + 0.5) * (layer.weather_scale_m / size) - layer.weather_offset_m.xy;
-    return (skewed_m + layer.warp_offset_m) / (BROAD_WARP_PERIODS * layer.shape_scale_m) * size - 0.5;
+    let skewed_m = (x + 0.5) * (cloud_layers[index].weather_scale_m / size) - cloud_layers[index].weather_offset_m.xy;
+    return (skewed_m + cloud_layers[index].warp_offset_m) / (BROAD_WARP_PERIODS * cloud_layers[index].shape_scale_m) * size - 0.5;
 }
 
 // The shape warp at weather texel `texel` (not wrapped), in shape periods: SHAPE_WARP of the
 // weather noise's curl there plus SHAPE_WARP_BROAD of the broad curl at the texel's centre. The
 // weather-map pass stores exactly this. Rust: `texel_shape_warp`.
-fn texel_shape_warp(layer: CloudLayerGpu, texel: vec2<i32>) -> vec2<f32> {
+fn texel_shape_warp(index: u32, texel: vec2<i32>) -> vec2<f32> {
     let fine = curl_look_up(vec2<f32>(texel));
-    let broad = curl_look_up(broad_look_up(layer, vec2<f32>(texel)));
+    let broad = curl_look_up(broad_look_up(index, vec2<f32>(texel)));
     return SHAPE_WARP * fine + SHAPE_WARP_BROAD * broad;
 }
 
@@ -271,14 +271,14 @@ fn texel_shape_warp(layer: CloudLayerGpu, texel: vec2<i32>) -> vec2<f32> {
 // over its own texels and its look-up affine in `x`, so where the four texel centres share a
 // broad cell (nine in ten along each axis at the default periods) the filter of their broad
 // curls is the broad curl at `x` itself, one look-up instead of four. Rust: `shape_warp`.
-fn shape_warp(layer: CloudLayerGpu, x: vec2<f32>) -> vec2<f32> {
+fn shape_warp(index: u32, x: vec2<f32>) -> vec2<f32> {
     let cell = floor(x);
     let fine = curl_look_up(x);
-    let b0 = broad_look_up(layer, cell);
-    let b1 = broad_look_up(layer, cell + 1.0);
+    let b0 = broad_look_up(index, cell);
+    let b1 = broad_look_up(index, cell + 1.0);
     var broad: vec2<f32>;
     if all(floor(b0) == floor(b1)) {
-        broad = curl_look_up(broad_look_up(layer, x));
+        broad = curl_look_up(broad_look_up(index, x));
     } else {
         let weight = x - cell;
         let c00 = curl_look_up(b0);
@@ -287,7 +287,7 @@ fn shape_warp(layer: CloudLayerGpu, x: vec2<f32>) -> vec2<f32> {
         let c11 = curl_look_up(b1);
         broad = mix(mix(c00, c10, weight.x), mix(c01, c11, weight.x), weight.y);
     }
-    return (SHAPE_WARP * fine + SHAPE_WARP_BROAD * broad) * layer.shape_scale_m;
+    return (SHAPE_WARP * fine + SHAPE_WARP_BROAD * broad) * cloud_layers[index].shape_scale_m;
 }
 
 // Extinction (1/m) of layer `index` (of `cloud_layers`) at horizontal coordinates
@@ -296,46 +296,45 @@ fn shape_warp(layer: CloudLayerGpu, x: vec2<f32>) -> vec2<f32> {
 // `with_detail = false` is the cheap base-only density (never below the full one).
 // Rust: `layer_density`.
 fn layer_density(index: u32, horizontal_m: vec2<f32>, altitude_m: f32, footprint_m: f32, with_detail: bool) -> f32 {
-    let layer = cloud_layers[index];
-    let inside = altitude_m >= layer.base_m && altitude_m <= layer.top_m;
-    if !layer_is_active(layer) || !inside {
+    let inside = altitude_m >= cloud_layers[index].base_m && altitude_m <= cloud_layers[index].top_m;
+    if !layer_is_active(index) || !inside {
         return 0.0;
     }
-    let height_above_base = altitude_m - layer.base_m;
-    let height_fraction = height_above_base / (layer.top_m - layer.base_m);
-    let look_up = weather_look_up(layer, horizontal_m, height_above_base);
-    let weather = weather_sample(layer, look_up);
+    let height_above_base = altitude_m - cloud_layers[index].base_m;
+    let height_fraction = height_above_base / (cloud_layers[index].top_m - cloud_layers[index].base_m);
+    let look_up = weather_look_up(index, horizontal_m, height_above_base);
+    let weather = weather_sample(index, look_up);
     let kappa = weather.x;
     if !(kappa > 0.0) {
         return 0.0;
     }
     let fill = patch_fill(kappa);
-    let profile = profile_density(index, height_fraction / coverage_height_scale(layer.coverage_height, fill));
+    let profile = profile_density(index, height_fraction / coverage_height_scale(cloud_layers[index].coverage_height, fill));
     if !(profile > 0.0) {
         return 0.0;
     }
-    let strength = saturate(layer.shape_strength);
+    let strength = saturate(cloud_layers[index].shape_strength);
     var shape = 1.0;
     if strength > 0.0 {
-        var warp = weather.yz * layer.shape_scale_m;
+        var warp = weather.yz * cloud_layers[index].shape_scale_m;
         if weather.w == 0.0 {
-            warp = shape_warp(layer, look_up);
+            warp = shape_warp(index, look_up);
         }
-        let uvw = vec3<f32>(horizontal_m.x + layer.noise_offset_m.x + warp.x, altitude_m, horizontal_m.y + layer.noise_offset_m.y + warp.y)
-            / layer.shape_scale_m;
-        let texel_m = layer.shape_scale_m / f32(textureDimensions(base_noise).x);
+        let uvw = vec3<f32>(horizontal_m.x + cloud_layers[index].noise_offset_m.x + warp.x, altitude_m, horizontal_m.y + cloud_layers[index].noise_offset_m.y + warp.y)
+            / cloud_layers[index].shape_scale_m;
+        let texel_m = cloud_layers[index].shape_scale_m / f32(textureDimensions(base_noise).x);
         shape = mix(1.0, base_shape(sample_base_noise(uvw, texture_lod(footprint_m, texel_m))), strength);
     }
     let covered = saturate(remap(shape * profile, 1.0 - kappa, 1.0, 0.0, 1.0)) * fill;
-    let erosion_strength = clamp(layer.detail_erosion, 0.0, MAX_DETAIL_EROSION) * strength;
+    let erosion_strength = clamp(cloud_layers[index].detail_erosion, 0.0, MAX_DETAIL_EROSION) * strength;
     if !with_detail || !(erosion_strength > 0.0) || !(covered > 0.0) {
-        return covered * layer.extinction;
+        return covered * cloud_layers[index].extinction;
     }
-    let uvw = vec3<f32>(horizontal_m.x + layer.noise_offset_m.z, altitude_m, horizontal_m.y + layer.noise_offset_m.w)
-        / layer.detail_scale_m;
-    let texel_m = layer.detail_scale_m / f32(textureDimensions(detail_noise).x);
+    let uvw = vec3<f32>(horizontal_m.x + cloud_layers[index].noise_offset_m.z, altitude_m, horizontal_m.y + cloud_layers[index].noise_offset_m.w)
+        / cloud_layers[index].detail_scale_m;
+    let texel_m = cloud_layers[index].detail_scale_m / f32(textureDimensions(detail_noise).x);
     let erosion = erosion_strength * detail_erosion(sample_detail_noise(uvw, texture_lod(footprint_m, texel_m)), height_fraction);
-    return saturate(remap(covered, erosion, 1.0, 0.0, 1.0)) * layer.extinction;
+    return saturate(remap(covered, erosion, 1.0, 0.0, 1.0)) * cloud_layers[index].extinction;
 }
 
 // Sum of `layer_density` over the layers at one point. Rust: `total_extinction`.
@@ -348,6 +347,6 @@ fn total_extinction(horizontal_m: vec2<f32>, altitude_m: f32, footprint_m: f32, 
 }
 
 // Rust: `scattering_albedo`.
-fn scattering_albedo(layer: CloudLayerGpu) -> f32 {
-    return 1.0 - PRECIPITATION_ABSORPTION * saturate(layer.precipitation);
+fn scattering_albedo(index: u32) -> f32 {
+    return 1.0 - PRECIPITATION_ABSORPTION * saturate(cloud_layers[index].precipitation);
 }

@@ -52,30 +52,30 @@ fn cloud_layer_count() -> u32 {
 }
 
 // Largest coverage anywhere: the layer's own or a far one. Rust: `max_coverage`.
-fn max_coverage(layer: CloudLayerGpu) -> f32 {
-    var coverage = layer.coverage;
-    for (var i = 0u; i < min(layer.far_count, MAX_FAR_COVERAGES); i++) {
-        coverage = max(coverage, layer.far[i].w);
+fn max_coverage(index: u32) -> f32 {
+    var coverage = cloud_layers[index].coverage;
+    for (var i = 0u; i < min(cloud_layers[index].far_count, MAX_FAR_COVERAGES); i++) {
+        coverage = max(coverage, cloud_layers[index].far[i].w);
     }
     return coverage;
 }
 
 // Coverage at `horizontal_m`, blended toward each far place by a smoothstep of the fraction of
 // the way there, from FAR_BLEND_START to 1. Rust: `layer_coverage`.
-fn layer_coverage(layer: CloudLayerGpu, horizontal_m: vec2<f32>) -> f32 {
-    var coverage = layer.coverage;
-    for (var i = 0u; i < min(layer.far_count, MAX_FAR_COVERAGES); i++) {
-        let far = layer.far[i];
+fn layer_coverage(index: u32, horizontal_m: vec2<f32>) -> f32 {
+    var coverage = cloud_layers[index].coverage;
+    for (var i = 0u; i < min(cloud_layers[index].far_count, MAX_FAR_COVERAGES); i++) {
+        let far = cloud_layers[index].far[i];
         let s = dot(horizontal_m, far.xy) + far.z;
         let t = saturate((s - FAR_BLEND_START) / (1.0 - FAR_BLEND_START));
-        coverage += t * t * (3.0 - 2.0 * t) * (far.w - layer.coverage);
+        coverage += t * t * (3.0 - 2.0 * t) * (far.w - cloud_layers[index].coverage);
     }
     return saturate(coverage);
 }
 
 // Rust: `layer_is_active`.
-fn layer_is_active(layer: CloudLayerGpu) -> bool {
-    return max_coverage(layer) > 0.0 && layer.extinction > 0.0 && layer.top_m > layer.base_m;
+fn layer_is_active(index: u32) -> bool {
+    return max_coverage(index) > 0.0 && cloud_layers[index].extinction > 0.0 && cloud_layers[index].top_m > cloud_layers[index].base_m;
 }
 
 // Next interval [start, end] at or after t_from where the ray is inside an active layer, the
@@ -86,11 +86,10 @@ fn next_cloud_interval(h: f32, mu: f32, t_from: f32, t_max: f32) -> vec2<f32> {
     let radius = clouds.planet_radius_m;
     var start = FAR_AWAY;
     for (var i = 0u; i < count; i++) {
-        let layer = cloud_layers[i];
-        if !layer_is_active(layer) {
+        if !layer_is_active(i) {
             continue;
         }
-        let s = shell_segments(h, mu, radius, layer.base_m, layer.top_m);
+        let s = shell_segments(h, mu, radius, cloud_layers[i].base_m, cloud_layers[i].top_m);
         if s.y > s.x && s.y > t_from {
             start = min(start, max(s.x, t_from));
         }
@@ -106,11 +105,10 @@ fn next_cloud_interval(h: f32, mu: f32, t_from: f32, t_max: f32) -> vec2<f32> {
     for (var guard = 0u; guard <= 2u * count; guard++) {
         var grown = false;
         for (var i = 0u; i < count; i++) {
-            let layer = cloud_layers[i];
-            if !layer_is_active(layer) {
+            if !layer_is_active(i) {
                 continue;
             }
-            let s = shell_segments(h, mu, radius, layer.base_m, layer.top_m);
+            let s = shell_segments(h, mu, radius, cloud_layers[i].base_m, cloud_layers[i].top_m);
             if s.y > s.x && s.y > t_from && s.x <= end && s.y > end {
                 end = s.y;
                 grown = true;

@@ -139,12 +139,11 @@ fn light_march_distance(altitude_m: f32, mu_sun: f32) -> f32 {
     var distance = 0.0;
     let count = cloud_layer_count();
     for (var i = 0u; i < count; i++) {
-        let layer = cloud_layers[i];
-        if !layer_is_active(layer) || !(altitude_m >= layer.base_m && altitude_m <= layer.top_m) {
+        if !layer_is_active(i) || !(altitude_m >= cloud_layers[i].base_m && altitude_m <= cloud_layers[i].top_m) {
             continue;
         }
-        let outer = intersect_altitude_sphere(altitude_m, mu_sun, radius, layer.top_m);
-        let inner = intersect_altitude_sphere(altitude_m, mu_sun, radius, layer.base_m);
+        let outer = intersect_altitude_sphere(altitude_m, mu_sun, radius, cloud_layers[i].top_m);
+        let inner = intersect_altitude_sphere(altitude_m, mu_sun, radius, cloud_layers[i].base_m);
         let through_base = select(FAR_AWAY, inner.x, inner.x >= 0.0);
         distance = max(distance, min(max(outer.y, 0.0), through_base));
     }
@@ -229,13 +228,12 @@ fn higher_layers_optical_depth(up: vec3<f32>, position_m: vec3<f32>, altitude_m:
     var optical_depth = 0.0;
     let count = cloud_layer_count();
     for (var i = 0u; i < count; i++) {
-        let layer = cloud_layers[i];
-        if !layer_is_active(layer) || !(layer.base_m > altitude_m) {
+        if !layer_is_active(i) || !(cloud_layers[i].base_m > altitude_m) {
             continue;
         }
         // From inside both spheres the ray leaves each through its far root.
-        let enter = intersect_altitude_sphere(altitude_m, mu_sun, radius, layer.base_m).y;
-        let leave = intersect_altitude_sphere(altitude_m, mu_sun, radius, layer.top_m).y;
+        let enter = intersect_altitude_sphere(altitude_m, mu_sun, radius, cloud_layers[i].base_m).y;
+        let leave = intersect_altitude_sphere(altitude_m, mu_sun, radius, cloud_layers[i].top_m).y;
         if !(enter >= 0.0 && leave > enter) {
             continue;
         }

@@ -27,9 +27,8 @@ fn build_weather_map(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= map.size || id.y >= map.size || id.z >= map.slices {
         return;
     }
-    let layer = cloud_layers[id.z];
-    let texel = vec2<i32>(layer.weather_map.xy) + vec2<i32>(id.xy);
-    let kappa = weather_texel_coverage(layer, texel);
-    let warp = texel_shape_warp(layer, texel);
+    let texel = vec2<i32>(cloud_layers[id.z].weather_map.xy) + vec2<i32>(id.xy);
+    let kappa = weather_texel_coverage(id.z, texel);
+    let warp = texel_shape_warp(id.z, texel);
     textureStore(weather_map_out, vec2<i32>(id.xy), i32(id.z), vec4<f32>(kappa, warp, 0.0));
 }
