@@ -622,6 +622,36 @@ fn hard_cases_stay_finite_and_physical() {
                 .count()
         );
     }
+    // The moon as the only light (the `Sun` light at night, `sky::sun_or_moon_light`): a full
+    // moon's 0.31 lux 30° up. Finite and physical, lit, and darker than the same sky by day.
+    let lit = |rig: &mut CloudRig, illuminance: f32| {
+        rig.app
+            .world()
+            .get_mut::<DirectionalLight>(rig.sun)
+            .unwrap()
+            .illuminance = illuminance;
+        rig.set_scene(&Scene {
+            name: "moonlight",
+            camera: looking(Vec3::new(0.0, 2.0, 0.0), 20.0, 0.0),
+            sun_deg: (30.0, 150.0),
+            layers: vec![cumulus.clone()],
+            settings: VolumetricClouds {
+                jitter: false,
+                ..VolumetricClouds::MEDIUM
+            },
+        });
+        rig.render(4)
+    };
+    let (day, _) = lit(&mut rig, 100_000.0);
+    let (night, t) = lit(&mut rig, 0.31);
+    assert_physical("moon as the only light", &night, &t, &rig.t_tolerance);
+    let sum = |l: &[[f32; 3]]| l.iter().flatten().map(|v| f64::from(*v)).sum::<f64>();
+    assert!(
+        sum(&night) > 0.0 && sum(&night) < 1e-3 * sum(&day),
+        "moonlit {} against sunlit {}",
+        sum(&night),
+        sum(&day)
+    );
     // Tiny and odd targets (one app at a time: apps take turns on the GPU).
     drop(rig);
     for size in [UVec2::new(1, 1), UVec2::new(7, 5)] {
