@@ -52,3 +52,16 @@ pub(crate) fn parse_table<T>(
     }
     Ok(cases)
 }
+
+/// The committed table at `relative` (a path from the crate root), parsed by `parse` (the
+/// test's [`parse_table`] call, given the path and the file's text). A file that cannot be read
+/// or parsed panics with the path and, for a row, the row: the test fails naming them.
+pub(crate) fn read_committed<T>(
+    relative: &str,
+    parse: impl FnOnce(&str, &str) -> Result<Vec<T>, String>,
+) -> Vec<T> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(relative);
+    let text = std::fs::read_to_string(&path)
+        .unwrap_or_else(|error| panic!("{relative}: cannot be read ({error})"));
+    parse(relative, &text).unwrap_or_else(|error| panic!("{error}"))
+}

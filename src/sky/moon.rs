@@ -6,8 +6,9 @@
 //! the illuminated fraction.
 //!
 //! Checked against `PyEphem` at 1 000 random places and instants between 1900 and 2100
-//! (`validation/moon/`): within 0.1° on the sky and 0.02 in illuminated fraction. Cost: about
-//! 200 trigonometric evaluations beyond the sun's; compute it once per frame at most.
+//! (`validation/moon/`): within 0.1° on the sky and 0.02 in illuminated fraction. Cost: one run
+//! of the sun's SPA (for the Earth's frame) and about 200 more trigonometric evaluations (the
+//! 180 terms of Tables 47.A and 47.B and the conversions); compute it once per frame at most.
 
 use super::solar::{Observer, SolarOptions, earth_frame, julian_day, topocentric, wrap_degrees};
 use crate::scene::UtcInstant;
@@ -48,7 +49,8 @@ impl LunarPosition {
     }
 
     /// The moon's illuminance above the atmosphere on a surface facing it, lux: about 0.31 at
-    /// full moon, a tenth of that at the quarters, 0 at new moon. Its visual magnitude at the
+    /// full moon, a tenth of that at the quarters, under a thousandth of it near new moon. Its
+    /// visual magnitude at the
     /// mean distance is `−12.73 + 0.026 |α| + 4·10⁻⁹ α⁴` for the phase angle `α` in degrees
     /// (Krisciunas & Schaefer 1991, "A model of the brightness of moonlight", eq. 9, after
     /// Allen 1973), the illuminance `10^(−0.4 (m + 16.57))` foot-candles (their eq. 8; 10.764

@@ -87,10 +87,7 @@ fn largest_differences(cases: &[Case]) -> [f64; 4] {
 
 #[test]
 fn sun_matches_pvlib_spa_at_ten_thousand_places_and_instants() {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(TABLE);
-    let text = std::fs::read_to_string(&path)
-        .unwrap_or_else(|e| panic!("{}: {e} (validation/sun/README.md)", path.display()));
-    let cases = parse_table(TABLE, &text).unwrap_or_else(|e| panic!("{e}"));
+    let cases = crate::reference::table::read_committed(TABLE, parse_table);
     assert_eq!(cases.len(), 10_000, "{TABLE}");
     let [zenith, apparent, azimuth, arc] = largest_differences(&cases);
     println!(

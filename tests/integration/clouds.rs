@@ -623,7 +623,9 @@ fn hard_cases_stay_finite_and_physical() {
         );
     }
     // The moon as the only light (the `Sun` light at night, `sky::sun_or_moon_light`): a full
-    // moon's 0.31 lux 30° up. Finite and physical, lit, and darker than the same sky by day.
+    // moon's 0.31 lux 30° up. Finite and physical, lit, and darker than the same sky by day:
+    // the light is 3·10⁻⁶ of the sun's, the night sky's own faint glow adds a little, and a
+    // thousandth fails a frame that does not follow the light's illuminance.
     let lit = |rig: &mut CloudRig, illuminance: f32| {
         rig.app
             .world()

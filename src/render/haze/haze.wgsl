@@ -65,17 +65,21 @@ fn haze_active() -> bool {
     return haze.extinction_per_m > 0.0 && haze.scale_height_m > 0.0;
 }
 
-// Step k of the haze march over `span`: sample distance, altitude, optical depth, the step
-// integral `dt (1 - e^-x) / x * sigma` (before the transmittance from the camera) and the step's
+// Step k of the haze march over `span`: sample distance, altitude, optical depth and the step's
 // ends.
 // Rust: `haze_steps`.
 struct HazeStep {
     t: f32,
     altitude: f32,
     optical_depth: f32,
-    integral: f32,
     start: f32,
     end: f32,
+}
+
+// The share of the light entering a uniform stretch of optical thickness x that it scatters,
+// x (1 - e^-x) / x: the step integral. Rust: `scattered_share`.
+fn scattered_share(x: f32) -> f32 {
+    return x * mean_step_transmittance(x);
 }
 
 fn haze_step(k: u32, n: f32, span: vec2<f32>, h: f32, mu: f32, jitter: f32) -> HazeStep {
@@ -88,7 +92,7 @@ fn haze_step(k: u32, n: f32, span: vec2<f32>, h: f32, mu: f32, jitter: f32) -> H
     let altitude = altitude_along_ray(h, mu, t, clouds.planet_radius_m);
     let sigma = haze.extinction_per_m * exp(-max(altitude, 0.0) / haze.scale_height_m);
     let x = sigma * dt;
-    return HazeStep(t, altitude, x, dt * mean_step_transmittance(x) * sigma, ta, tb);
+    return HazeStep(t, altitude, x, ta, tb);
 }
 
 // The light shafts of one view ray: the mean sun transmittance from the cloud shadow map of the
@@ -106,7 +110,7 @@ fn shaft_factors(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter
         var depth = 0.0;
         for (var k = 0u; k < steps; k++) {
             let step = haze_step(k, n, span, h, mu, jitter);
-            let w = exp(-depth) * step.integral;
+            let w = exp(-depth) * scattered_share(step.optical_depth);
             depth += step.optical_depth;
             // Beyond the map, the clouds' mean shade.
             var sun = haze.sun_transmittance;
@@ -166,8 +170,8 @@ fn march_haze(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, split_m: 
         let before = exp(-(depth_front + depth_back)) * haze.albedo;
         let front = step.optical_depth * front_share(step.start, step.end, split_m);
         let back = step.optical_depth - front;
-        radiance_front += before * front * mean_step_transmittance(front) * source;
-        radiance_back += before * exp(-front) * back * mean_step_transmittance(back) * source;
+        radiance_front += before * scattered_share(front) * source;
+        radiance_back += before * exp(-front) * scattered_share(back) * source;
         depth_front += front;
         depth_back += back;
     }

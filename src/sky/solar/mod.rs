@@ -232,7 +232,6 @@ struct Spa {
     julian_ephemeris_century: f64,
     /// Apparent sidereal time at Greenwich ν, [0, 360) (eq. 29).
     apparent_sidereal_time_deg: f64,
-    earth_sun_distance_au: f64,
     position: SolarPosition,
 }
 
@@ -264,7 +263,7 @@ pub(crate) fn earth_frame(jd: f64, options: &SolarOptions) -> EarthFrame {
         true_obliquity_deg: spa.true_obliquity_deg,
         apparent_sidereal_time_deg: spa.apparent_sidereal_time_deg,
         sun_longitude_deg: spa.apparent_longitude_deg,
-        sun_distance_au: spa.earth_sun_distance_au,
+        sun_distance_au: spa.position.earth_sun_distance_au,
     }
 }
 
@@ -453,7 +452,6 @@ fn spa(observer: &Observer, jd: f64, options: &SolarOptions) -> Spa {
         topocentric_right_ascension_deg: seen.right_ascension_deg,
         julian_ephemeris_century: jce,
         apparent_sidereal_time_deg: wrap_degrees(nu),
-        earth_sun_distance_au: r,
         position: SolarPosition {
             zenith_deg: 90.0 - elevation,
             elevation_deg: elevation,

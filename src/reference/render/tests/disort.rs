@@ -60,10 +60,7 @@ fn parse_table(file: &str, text: &str) -> Result<Vec<Case>, String> {
 }
 
 fn table() -> Vec<Case> {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(TABLE);
-    let text = std::fs::read_to_string(&path)
-        .unwrap_or_else(|error| panic!("{TABLE}: cannot be read ({error})"));
-    parse_table(TABLE, &text).unwrap_or_else(|error| panic!("{error}"))
+    crate::reference::table::read_committed(TABLE, parse_table)
 }
 
 /// The crate's radiance per unit sun illuminance for `case` seen by `view` (an index into
