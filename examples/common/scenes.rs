@@ -96,13 +96,15 @@ pub fn sun_direction((elevation, azimuth): (f32, f32)) -> Vec3 {
 
 /// Deterministic settings: no jitter, so GPU and CPU sample the same points, at full
 /// resolution (the CPU reference renders one ray per pixel), with 5 light steps (cheap for the
-/// CPU twin; the GPU and CPU march the same steps either way).
+/// CPU twin; the GPU and CPU march the same steps either way), and every sample's sun from
+/// the light march, as the CPU reference marches it without a shadow map.
 pub fn settings(primary_steps: u32) -> VolumetricClouds {
     VolumetricClouds {
         primary_steps,
         light_steps: 5,
         resolution_scale: 1.0,
         jitter: false,
+        sun_from_shadow_map_m: f32::INFINITY,
         ..VolumetricClouds::MEDIUM
     }
 }

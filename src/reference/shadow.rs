@@ -766,6 +766,69 @@ mod tests {
         assert!(map.sample([5000.0, 0.0, 0.0]).is_none(), "outside the map");
     }
 
+    /// A sample reads its sun from the map only where the map may light it
+    /// ([`shadow_map_lights`](crate::reference::render::shadow_map_lights)): a map with a wrong
+    /// optical depth (50 on every sun line below the slab's top) changes a ray away from a 40°
+    /// sun, and leaves a ray toward it, and a ray under a 5° sun, exactly as the light march has
+    /// them.
+    #[test]
+    fn the_map_lights_samples_away_from_a_high_sun_only() {
+        let textures = blob_textures(16, 0.2);
+        let mut layer = blob_layer(1000.0, 2000.0, 0.002, 20_000.0);
+        layer.coverage = 1.0;
+        let layers = [layer];
+        let frame = ShadowMapFrame {
+            centre_m: [0.0, 0.0, 0.0],
+            axis_x_m: [-10_000.0, 0.0, 0.0],
+            axis_y_m: [0.0, 0.0, 10_000.0],
+            size: 256,
+            cloud_range_m: [1000.0, 2000.0],
+        };
+        // Optical depth 50 from just under the top down.
+        let dark = ShadowMapImage {
+            frame,
+            texels: vec![[(-50.0f64).exp(), 2000.0, 1999.0, 1998.0]; 256 * 256],
+        };
+        let radiance = |elevation_deg: f64, direction: [f64; 3], map: Option<&ShadowMapImage>| {
+            let settings = MarchSettings {
+                sun_from_shadow_map_m: 0.0,
+                ..settings_with_sun(elevation_deg, 180.0)
+            };
+            crate::reference::render::march_clouds(
+                &textures,
+                &settings,
+                &layers,
+                0.0,
+                [0.0, 1.0, 0.0],
+                direction,
+                f64::INFINITY,
+                0.5,
+                map,
+            )
+            .radiance[1]
+        };
+        // 60° up toward the north, the sun in the south: cos 80° from a 40° sun.
+        let north = [0.0, 60f64.to_radians().sin(), -60f64.to_radians().cos()];
+        let (marched, from_map) = (
+            radiance(40.0, north, None),
+            radiance(40.0, north, Some(&dark)),
+        );
+        assert!(
+            (from_map - marched).abs() > 0.1 * marched,
+            "away from a 40° sun the map is read: {from_map} vs {marched}"
+        );
+        // Straight at the sun (south, 40° up).
+        let sunward = [0.0, 40f64.to_radians().sin(), 40f64.to_radians().cos()];
+        assert_eq!(
+            radiance(40.0, sunward, Some(&dark)),
+            radiance(40.0, sunward, None)
+        );
+        assert_eq!(
+            radiance(5.0, north, Some(&dark)),
+            radiance(5.0, north, None)
+        );
+    }
+
     #[test]
     fn texel_layout_matches_bevy_light_texture_projection() {
         let frame = ShadowMapFrame {

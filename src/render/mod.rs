@@ -237,16 +237,17 @@ pub struct VolumetricClouds {
     /// (`ULTRA` 0.5).
     pub light_shaft_resolution_scale: f32,
     /// From this distance along the view ray on, metres, cloud samples light-march only the first
-    /// four shadow-map texels toward the sun, in at most two steps, and read the rest of the way
-    /// from the cloud shadow map ([`shadow::CloudShadows`]; where the map covers them). That
-    /// is two density samples instead of [`VolumetricClouds::light_steps`], but the map is a
-    /// coarse stand-in for the light march: its texels (156 m across the sun at the default
-    /// 40 km and 256²) blur the clouds' edges, and its few knots per sun line (the cloud top and
-    /// the altitudes of optical depths 1 and 4) miss how the depth grows along the long, nearly
-    /// level sun lines of a low sun, whose far clouds come out wrong. Without a map (shadows
-    /// off, night) the light march runs everywhere. Opt in for a large view of far clouds
-    /// under a high sun, where the light march's cost matters more than their lighting.
-    /// Default `f32::INFINITY` (never) in every preset.
+    /// four shadow-map texels toward the sun, in at most four steps, and read the rest of the
+    /// way from the cloud shadow map ([`shadow::CloudShadows`]): that is four density samples
+    /// instead of [`VolumetricClouds::light_steps`]. Only where the map covers the sample and
+    /// may light it: not on view rays within about 32° of the sun, where the phase function's
+    /// forward peak turns the map's blur of thin, backlit edges (its texels are 156 m across
+    /// the sun at the default 40 km and 256²) into the brightest error, and not under a sun
+    /// below 10°, whose long, nearly level sun lines cross several clouds between the map's
+    /// knots (the cloud top and the altitudes of optical depths 1 and 4). Without a map
+    /// (shadows off, night) the light march runs everywhere. It saves where a ray's samples
+    /// take more than four light steps. Default 0 (every such sample; `LOW`, `HIGH` and
+    /// `ULTRA` `f32::INFINITY`: never).
     pub sun_from_shadow_map_m: f32,
     /// Shortest primary step, metres: a short interval (a thin layer, a fog bank the camera
     /// looks up through) is marched in fewer than [`VolumetricClouds::primary_steps`] steps, one
@@ -299,6 +300,9 @@ impl VolumetricClouds {
         haze_steps: 8,
         light_shafts: false,
         min_step_m: 30.0,
+        // Its rays away from the sun take 4 light steps or fewer, no more than the map's near
+        // march: the map would add its reads and save none.
+        sun_from_shadow_map_m: f32::INFINITY,
         ..Self::MEDIUM
     };
     /// The default balance of speed and quality: a quarter of the resolution per axis with
@@ -309,7 +313,10 @@ impl VolumetricClouds {
     /// still view converges close to a full-resolution march; while the camera moves the clouds
     /// are softer, each pixel taking new data only every sixteenth frame. It keeps multiple
     /// scattering: it costs arithmetic only, and dropping it darkens the clouds, most in
-    /// overcast. Measured time and error: `docs/performance.md`.
+    /// overcast. Where the cloud shadow map may light a sample (rays away from the sun, a sun
+    /// 10° or more up) the sample takes four light steps and the rest of its sun from the map
+    /// ([`VolumetricClouds::sun_from_shadow_map_m`]). Measured time and error:
+    /// `docs/performance.md`.
     pub const MEDIUM: Self = Self {
         primary_steps: 192,
         light_steps: 14,
@@ -322,7 +329,7 @@ impl VolumetricClouds {
         light_shafts: true,
         temporal_blend: 0.1,
         light_shaft_resolution_scale: 0.25,
-        sun_from_shadow_map_m: f32::INFINITY,
+        sun_from_shadow_map_m: 0.0,
         min_step_m: 25.0,
         light_steps_per_footprint: 2.0,
         light_steps_away_from_sun: 0.5,
@@ -330,14 +337,15 @@ impl VolumetricClouds {
         reset_history: false,
     };
     /// More steps for close-ups and stills: [`VolumetricClouds::MEDIUM`]'s quarter resolution
-    /// with 384 primary and 24 light steps, a 20 m shortest primary step and 16 haze steps.
-    /// It costs about twice `MEDIUM`.
+    /// with 384 primary and 24 light steps, a 20 m shortest primary step, 16 haze steps, and
+    /// every sample's sun from the light march. It costs about twice `MEDIUM`.
     /// Measured time and error: `docs/performance.md`.
     pub const HIGH: Self = Self {
         primary_steps: 384,
         light_steps: 24,
         haze_steps: 16,
         min_step_m: 20.0,
+        sun_from_shadow_map_m: f32::INFINITY,
         ..Self::MEDIUM
     };
     /// Many steps: screenshots and references. 768 primary and 32 light steps, every sample's
@@ -352,6 +360,7 @@ impl VolumetricClouds {
         min_step_m: 5.0,
         light_steps_per_footprint: f32::INFINITY,
         light_steps_away_from_sun: 1.0,
+        sun_from_shadow_map_m: f32::INFINITY,
         ..Self::MEDIUM
     };
 }

@@ -73,6 +73,14 @@ const CLEAR_STEP_OPTICAL_DEPTH: f32 = 0.1;
 const TOWARD_SUN_COS: f32 = 0.85;
 const AWAY_FROM_SUN_COS: f32 = 0.5;
 const EDGE_SEARCH_STEPS: u32 = 6u;
+// Rust: `SHADOW_MAP_MIN_SUN_MU` (sin 10 degrees).
+const SHADOW_MAP_MIN_SUN_MU: f32 = 0.17364817766693033;
+
+// Whether a sample may read its sun from the cloud shadow map: not on a view ray within about
+// 32 degrees of the sun, nor under a sun below 10 degrees. Rust: `shadow_map_lights`.
+fn shadow_map_lights(cos_sun: f32, mu_sun: f32) -> bool {
+    return cos_sun < TOWARD_SUN_COS && mu_sun >= SHADOW_MAP_MIN_SUN_MU;
+}
 
 // GPU only: the light march is deferred. A sample's source needs its light march toward the
 // sun, but nothing else the view march does depends on it (the source enters the radiance
@@ -462,11 +470,12 @@ fn light_sample(ray: ptr<function, MarchRay>, sample: QueuedSample) -> SampleSou
     var above = 0.0;
     if (*ray).sun_on {
         // A far sample marches only the first texels toward the sun and reads the rest of the
-        // way from the shadow map, where the map covers it (Rust: `Ray::integrate`).
+        // way from the shadow map, where the map covers it and may light it (Rust:
+        // `Ray::integrate`).
         let near = SHADOW_MAP_NEAR_TEXELS * clouds.shadow_map_range_m.z;
         let end = position + clouds.sun_direction.xyz * near;
         let uv = shadow_map_uv(end);
-        if t >= clouds.sun_from_shadow_map_m && shadow_map_covers(uv) {
+        if t >= clouds.sun_from_shadow_map_m && shadow_map_lights((*ray).cos_sun, mu_sun) && shadow_map_covers(uv) {
             let end_altitude = altitude_along_ray(altitude, mu_sun, near, clouds.planet_radius_m);
             optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, near, min(light_steps, SHADOW_MAP_NEAR_STEPS), LIGHT_SAMPLE_OFFSET, (*ray).jitter);
             if optical_depth >= 0.0 {

@@ -26,7 +26,7 @@ const LIGHT_SAMPLE_OFFSET: f32 = 0.5;
 const LIGHT_STEP_SPAN_M: f32 = 2000.0;
 const MAX_PHASE_G: f32 = 0.999;
 const SHADOW_MAP_NEAR_TEXELS: f32 = 4.0;
-const SHADOW_MAP_NEAR_STEPS: u32 = 2u;
+const SHADOW_MAP_NEAR_STEPS: u32 = 4u;
 const HIGHER_LAYER_STEP_DIVISOR: u32 = 4u;
 // Below this optical thickness `mean_step_transmittance` uses its series (Rust: SERIES_LIMIT,
 // 1e-5 there because f64 has expm1).
