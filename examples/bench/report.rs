@@ -334,7 +334,8 @@ pub fn performance_md(
         "# Performance\n\n\
          Written by the `bench` example from its CSV files; do not edit by hand. Regenerate \
          with\n\n```sh\n{command}\n```\n\nfrom the CSV files of a run (`docs/bench/README.md` \
-         has the commands that made the crate's own).\n\n\
+         has the commands that made the crate's own: with the cloud shadow map on, as a \
+         game's plugin has it, so `MEDIUM` reads most samples' sun from the map).\n\n\
          Each cell is the relative RMSE of the linear luminance against a converged reference \
          march (512 primary steps per ray and 64 light steps, no jitter, no early exit, full \
          resolution), at the cloud pass's time as a share of the reference's, at {size}. \
