@@ -116,6 +116,10 @@ fn rust_constants() -> Vec<(&'static str, Vec<f64>)> {
         ),
         ("TOWARD_SUN_COS", scalar(TOWARD_SUN_COS)),
         ("SHADOW_MAP_MIN_SUN_MU", scalar(SHADOW_MAP_MIN_SUN_MU)),
+        (
+            "AWAY_FROM_SUN_CUTOFF_GAIN",
+            scalar(AWAY_FROM_SUN_CUTOFF_GAIN),
+        ),
         ("AWAY_FROM_SUN_COS", scalar(AWAY_FROM_SUN_COS)),
         ("CLEAR_STEP_OPTICAL_DEPTH", scalar(CLEAR_STEP_OPTICAL_DEPTH)),
         ("EDGE_SEARCH_STEPS", scalar(EDGE_SEARCH_STEPS.into())),

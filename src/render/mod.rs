@@ -193,8 +193,10 @@ pub struct VolumetricClouds {
     /// [`VolumetricClouds::multiple_scattering`] that is the δ-scaled medium's transmittance
     /// `e^(−(1 − f) τ)` (`f` the phase's forward fraction), which carries a backlit cloud's glow
     /// and the sky behind a thin cloud: the true medium's `e^(−τ)` reaches the cut-off several
-    /// times sooner and drops them. 0 marches every ray to its end with every light step
-    /// ([`VolumetricClouds::light_steps`]). Default 0.01 (`ULTRA` 0.002).
+    /// times sooner and drops them. A ray 60° or more from the sun that ends in the sky stops at
+    /// five times this (linearly more from about 32° on): away from the sun what lies beyond is
+    /// diffuse light, which the light added at the stop carries. 0 marches every ray to its end
+    /// with every light step ([`VolumetricClouds::light_steps`]). Default 0.01 (`ULTRA` 0.002).
     pub transmittance_cutoff: f32,
     /// Light scattered more than once: the δ-Eddington diffuse field of the sun and the sky in
     /// each cloud (validated against DISORT, `validation/README.md`). Off, the clouds get

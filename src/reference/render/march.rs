@@ -61,6 +61,31 @@ pub const TOWARD_SUN_COS: f64 = 0.85;
 /// ([`ray_light_steps`]).
 pub const AWAY_FROM_SUN_COS: f64 = 0.5;
 
+/// How many times [`MarchSettings::transmittance_cutoff`] a view ray 60° or more from the sun
+/// ([`AWAY_FROM_SUN_COS`]) stops at ([`ray_transmittance_cutoff`]). Away from the sun the phase
+/// function's forward peak sends no light toward the camera, so what lies beyond a cut-off is
+/// the δ-scaled diffuse and sky light, which the tail added at the stop (the medium going on
+/// like the last step) carries; toward the sun the glow of a backlit cloud's depths does not
+/// follow the last step. Against the converged march (bench `--shadows`, 160×88), the cut-off
+/// 0.05 on every ray put `MEDIUM` 7.28 % off at sunset; 0.05 away from the sun only 5.06 %,
+/// with cumulus at noon 3.89 % (4.06 % at 0.01) and the cloud march about a sixth cheaper.
+pub const AWAY_FROM_SUN_CUTOFF_GAIN: f64 = 5.0;
+
+/// The view transmittance at which a ray stops: [`MarchSettings::transmittance_cutoff`] within
+/// about 32° of the sun ([`TOWARD_SUN_COS`]), [`AWAY_FROM_SUN_CUTOFF_GAIN`] times it from 60° on
+/// ([`AWAY_FROM_SUN_COS`]), linear between, at most 1; 0 stays 0. Only for a ray that ends in
+/// the sky (`t_max` at [`FAR_AWAY`](crate::reference::composite::FAR_AWAY) or beyond): the
+/// tail takes the medium on without end, so a ray to a scene object keeps the cut-off, and the
+/// object seen through fog at a few percent contrast stays seen. WGSL twin:
+/// `ray_transmittance_cutoff`.
+pub fn ray_transmittance_cutoff(cutoff: f64, cos_sun: f64, t_max: f64) -> f64 {
+    if t_max < crate::reference::composite::FAR_AWAY {
+        return cutoff;
+    }
+    let toward = saturate((cos_sun - AWAY_FROM_SUN_COS) / (TOWARD_SUN_COS - AWAY_FROM_SUN_COS));
+    (cutoff * lerp(AWAY_FROM_SUN_CUTOFF_GAIN, 1.0, toward)).min(1.0)
+}
+
 /// The sun's elevation, as the sine at the sample, below which a sample takes its sun from the
 /// light march even where the cloud shadow map could give it ([`shadow_map_lights`]): the map
 /// holds each sun line's optical depth against altitude, and the long, nearly level sun lines
@@ -197,6 +222,8 @@ struct Ray<'a> {
     horizontal_direction: [f64; 2],
     /// Cosine of the angle between the view ray and the sun, for the phase function.
     cos_sun: f64,
+    /// The view transmittance the ray stops at ([`ray_transmittance_cutoff`]).
+    cutoff: f64,
     /// The light steps of the ray's samples before `light_steps_at` ([`ray_light_steps`]).
     light_steps: u32,
     /// The δ-Eddington constants of the settings' phase.
@@ -441,7 +468,7 @@ impl Ray<'_> {
             if is_positive(medium.extinction) {
                 self.integrate(t, to - from, &medium);
                 cloudy += 1;
-                if self.cutoff_transmittance() <= self.settings.transmittance_cutoff {
+                if self.cutoff_transmittance() <= self.cutoff {
                     break;
                 }
             }
@@ -501,7 +528,7 @@ impl Ray<'_> {
             self.light_steps,
             self.transmittance,
             self.cutoff_transmittance(),
-            settings.transmittance_cutoff,
+            self.cutoff,
         );
         if self.sun_on {
             let light_march = |max_distance: f64, steps: u32| {
@@ -616,7 +643,7 @@ impl Ray<'_> {
         let beta = growth * (end - start) / (1.0 + growth * start);
         let n = f64::from(steps);
         let boundary = |k: u32| start + (end - start) * step_warp(f64::from(k) / n, beta);
-        let cutoff = settings.transmittance_cutoff;
+        let cutoff = self.cutoff;
         let mut k = 0;
         let mut cheap = true;
         let mut empty = 0;
@@ -741,6 +768,7 @@ pub fn march_clouds(
             settings.light_steps_away_from_sun,
             saturate(jitter),
         ),
+        cutoff: ray_transmittance_cutoff(settings.transmittance_cutoff, cos_sun, t_max),
         phase: eddington_phase(settings),
         sun_on: settings.sun_illuminance.iter().any(|&e| e > 0.0),
         jitter: saturate(jitter),

@@ -73,8 +73,22 @@ const CLEAR_STEP_OPTICAL_DEPTH: f32 = 0.1;
 const TOWARD_SUN_COS: f32 = 0.85;
 const AWAY_FROM_SUN_COS: f32 = 0.5;
 const EDGE_SEARCH_STEPS: u32 = 6u;
+// Rust: `AWAY_FROM_SUN_CUTOFF_GAIN`.
+const AWAY_FROM_SUN_CUTOFF_GAIN: f32 = 5.0;
 // Rust: `SHADOW_MAP_MIN_SUN_MU` (sin 10 degrees).
 const SHADOW_MAP_MIN_SUN_MU: f32 = 0.17364817766693033;
+
+// The view transmittance a ray stops at: the cut-off within about 32 degrees of the sun,
+// AWAY_FROM_SUN_CUTOFF_GAIN times it from 60 degrees on, linear between, at most 1; the cut-off
+// itself for a ray that ends at a scene object (t_max below FAR_AWAY). Rust:
+// `ray_transmittance_cutoff`.
+fn ray_transmittance_cutoff(cutoff: f32, cos_sun: f32, t_max: f32) -> f32 {
+    if t_max < FAR_AWAY {
+        return cutoff;
+    }
+    let toward = saturate((cos_sun - AWAY_FROM_SUN_COS) / (TOWARD_SUN_COS - AWAY_FROM_SUN_COS));
+    return min(cutoff * mix(AWAY_FROM_SUN_CUTOFF_GAIN, 1.0, toward), 1.0);
+}
 
 // Whether a sample may read its sun from the cloud shadow map: not on a view ray within about
 // 32 degrees of the sun, nor under a sun below 10 degrees. Rust: `shadow_map_lights`.
@@ -150,6 +164,8 @@ struct MarchRay {
     // Sum of (opacity a step adds) * (its distance), and sum of opacity (Rust: `Ray::add_opacity`).
     opacity_distance: f32,
     opacity: f32,
+    // The view transmittance the ray stops at (`ray_transmittance_cutoff`).
+    cutoff: f32,
 }
 
 // What a view ray sees of the clouds. Rust: `MarchResult`.
@@ -344,7 +360,7 @@ fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32, clear_from: f32) -
         if part.extinction > 0.0 {
             integrate_step(ray, ts, to - begin, part, weight);
             cloudy += 1u;
-            if cutoff_transmittance(ray) <= clouds.transmittance_cutoff {
+            if cutoff_transmittance(ray) <= (*ray).cutoff {
                 break;
             }
         }
@@ -412,7 +428,7 @@ fn integrate_step(ray: ptr<function, MarchRay>, t: f32, dt: f32, medium: Medium,
     let weight = (*ray).transmittance * dt * mean_step_transmittance(x);
     let scaled_weight = exp(-scaled * (*ray).optical_depth) * dt * mean_step_transmittance(scaled * x);
     // Deep in the cloud, and past the true medium's cut-off, fewer light steps.
-    let light_steps = light_steps_at((*ray).light_steps, (*ray).transmittance, cutoff_transmittance(ray), clouds.transmittance_cutoff);
+    let light_steps = light_steps_at((*ray).light_steps, (*ray).transmittance, cutoff_transmittance(ray), (*ray).cutoff);
     let ambient = select(medium.ambient, medium.sky_light_top, clouds.multiple_scattering != 0u);
     light_queue[queued] = QueuedSample(ambient, medium.sky_light_bottom, t, medium.scattering, medium.column_above, medium.column_below, extinction, share * weight, share * scaled_weight, light_steps);
     (*ray).tail_a = queued;
@@ -565,7 +581,7 @@ fn march_interval(ray: ptr<function, MarchRay>, start: f32, end: f32, total: f32
         clear_from = select(NO_HIT, ta + (*ray).jitter * (tb - ta), x < CLEAR_STEP_OPTICAL_DEPTH);
         if x > 0.0 {
             empty = 0u;
-            if cutoff_transmittance(ray) <= clouds.transmittance_cutoff {
+            if cutoff_transmittance(ray) <= (*ray).cutoff {
                 // The light the rest of the medium would add, as if it went on like the last
                 // step; nothing behind shows through (Rust: `Ray::march_interval`).
                 add_tail(ray);
@@ -622,6 +638,7 @@ fn march_clouds(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter:
         vec3<f32>(0.0),
         0.0,
         0.0,
+        ray_transmittance_cutoff(clouds.transmittance_cutoff, cos_sun, t_max),
     );
     queued = 0u;
     // The primary steps are a budget for the whole ray, shared by its intervals.

@@ -638,3 +638,32 @@ fn samples_deep_in_the_cloud_march_fewer_light_steps() {
     // Without an early exit (the converged reference) every light step, however deep.
     assert_eq!(light_steps_at(64, 0.001, 0.01 * full, 0.0), 64);
 }
+
+#[test]
+fn rays_away_from_the_sun_into_the_sky_stop_sooner() {
+    use crate::reference::composite::FAR_AWAY;
+    let cutoff = 0.01;
+    // Within about 32° of the sun every ray keeps the cut-off; from 60° on a sky ray takes
+    // AWAY_FROM_SUN_CUTOFF_GAIN times it, linearly between.
+    assert_eq!(ray_transmittance_cutoff(cutoff, 1.0, f64::INFINITY), cutoff);
+    assert_eq!(
+        ray_transmittance_cutoff(cutoff, TOWARD_SUN_COS, FAR_AWAY),
+        cutoff
+    );
+    let away = ray_transmittance_cutoff(cutoff, 0.0, f64::INFINITY);
+    assert!(
+        (away - AWAY_FROM_SUN_CUTOFF_GAIN * cutoff).abs() < 1e-15,
+        "{away}"
+    );
+    let between =
+        ray_transmittance_cutoff(cutoff, 0.5 * (TOWARD_SUN_COS + AWAY_FROM_SUN_COS), FAR_AWAY);
+    assert!(
+        (between - 0.5 * (1.0 + AWAY_FROM_SUN_CUTOFF_GAIN) * cutoff).abs() < 1e-12,
+        "{between}"
+    );
+    // A ray to a scene object keeps it (the tail does not know where the object is), the
+    // converged march's 0 stays 0, and no cut-off passes 1.
+    assert_eq!(ray_transmittance_cutoff(cutoff, 0.0, 5_000.0), cutoff);
+    assert_eq!(ray_transmittance_cutoff(0.0, 0.0, f64::INFINITY), 0.0);
+    assert_eq!(ray_transmittance_cutoff(0.5, 0.0, f64::INFINITY), 1.0);
+}
