@@ -531,6 +531,21 @@ mod tests {
         layer
     }
 
+    /// A homogeneous slab 1–2 km up (coverage 1: overcast) of extinction `sigma`, and a map of
+    /// `size`² texels centred on the camera, `half_m` metres to each side.
+    fn slab_under_map(sigma: f64, half_m: f64, size: u32) -> ([MarchLayer; 1], ShadowMapFrame) {
+        let mut layer = blob_layer(1000.0, 2000.0, sigma, 20_000.0);
+        layer.coverage = 1.0;
+        let frame = ShadowMapFrame {
+            centre_m: [0.0, 0.0, 0.0],
+            axis_x_m: [-half_m, 0.0, 0.0],
+            axis_y_m: [0.0, 0.0, half_m],
+            size,
+            cloud_range_m: [1000.0, 2000.0],
+        };
+        ([layer], frame)
+    }
+
     fn settings_with_sun(elevation_deg: f64, azimuth_from_north_deg: f64) -> MarchSettings {
         let (e, a) = (
             elevation_deg.to_radians(),
@@ -729,20 +744,11 @@ mod tests {
 
     #[test]
     fn map_levels_give_the_sun_optical_depth_inside_a_slab() {
-        // A homogeneous slab 1–2 km up (coverage 1: overcast), sun 40° high.
+        // The slab under a map 2 km across, sun 40° high.
         let textures = blob_textures(16, 0.2);
         let sigma = 0.002;
-        let mut layer = blob_layer(1000.0, 2000.0, sigma, 20_000.0);
-        layer.coverage = 1.0;
-        let layers = [layer];
+        let (layers, frame) = slab_under_map(sigma, 1000.0, 8);
         let settings = settings_with_sun(40.0, 180.0);
-        let frame = ShadowMapFrame {
-            centre_m: [0.0, 0.0, 0.0],
-            axis_x_m: [-1000.0, 0.0, 0.0],
-            axis_y_m: [0.0, 0.0, 1000.0],
-            size: 8,
-            cloud_range_m: [1000.0, 2000.0],
-        };
         let map = ShadowMapImage {
             frame,
             texels: cloud_shadow_map_texels(&textures, &settings, &layers, &frame, 12),
@@ -774,16 +780,7 @@ mod tests {
     #[test]
     fn the_map_lights_samples_away_from_a_high_sun_only() {
         let textures = blob_textures(16, 0.2);
-        let mut layer = blob_layer(1000.0, 2000.0, 0.002, 20_000.0);
-        layer.coverage = 1.0;
-        let layers = [layer];
-        let frame = ShadowMapFrame {
-            centre_m: [0.0, 0.0, 0.0],
-            axis_x_m: [-10_000.0, 0.0, 0.0],
-            axis_y_m: [0.0, 0.0, 10_000.0],
-            size: 256,
-            cloud_range_m: [1000.0, 2000.0],
-        };
+        let (layers, frame) = slab_under_map(0.002, 10_000.0, 256);
         // Optical depth 50 from just under the top down.
         let dark = ShadowMapImage {
             frame,

@@ -303,9 +303,8 @@ pub(in crate::reference) fn point_mu_sun(
 pub const SHADOW_MAP_NEAR_TEXELS: f64 = 4.0;
 
 /// Most light-march steps over those first texels (fewer than a full light march: the saving).
-/// Two put `MEDIUM` 14.5 % off the converged march of the bench's cumulus at noon, four 3.9 %
-/// (every sample from the map, cloud shadow map at its default). WGSL twin:
-/// `SHADOW_MAP_NEAR_STEPS`.
+/// The fewest that keep `MEDIUM` within its 5 % of the converged march in the bench's views
+/// away from the sun. WGSL twin: `SHADOW_MAP_NEAR_STEPS`.
 pub const SHADOW_MAP_NEAR_STEPS: u32 = 4;
 
 /// The point `s` metres toward the sun from `position_m` (at `altitude_m`, the sun at `mu_sun`

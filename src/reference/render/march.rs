@@ -66,9 +66,7 @@ pub const AWAY_FROM_SUN_COS: f64 = 0.5;
 /// function's forward peak sends no light toward the camera, so what lies beyond a cut-off is
 /// the δ-scaled diffuse and sky light, which the tail added at the stop (the medium going on
 /// like the last step) carries; toward the sun the glow of a backlit cloud's depths does not
-/// follow the last step. Against the converged march (bench `--shadows`, 160×88), the cut-off
-/// 0.05 on every ray put `MEDIUM` 7.28 % off at sunset; 0.05 away from the sun only 5.06 %,
-/// with cumulus at noon 3.89 % (4.06 % at 0.01) and the cloud march about a sixth cheaper.
+/// follow the last step. What it costs and saves: `docs/performance.md`.
 pub const AWAY_FROM_SUN_CUTOFF_GAIN: f64 = 5.0;
 
 /// The view transmittance at which a ray stops: [`MarchSettings::transmittance_cutoff`] within
@@ -82,16 +80,21 @@ pub fn ray_transmittance_cutoff(cutoff: f64, cos_sun: f64, t_max: f64) -> f64 {
     if t_max < crate::reference::composite::FAR_AWAY {
         return cutoff;
     }
-    let toward = saturate((cos_sun - AWAY_FROM_SUN_COS) / (TOWARD_SUN_COS - AWAY_FROM_SUN_COS));
-    (cutoff * lerp(AWAY_FROM_SUN_CUTOFF_GAIN, 1.0, toward)).min(1.0)
+    (cutoff * lerp(AWAY_FROM_SUN_CUTOFF_GAIN, 1.0, toward_sun(cos_sun))).min(1.0)
+}
+
+/// How far a view ray at `cos_sun` is toward the sun: 0 from [`AWAY_FROM_SUN_COS`] out, 1
+/// within [`TOWARD_SUN_COS`], linear between. [`ray_light_steps`] computes the same ramp in f32,
+/// as the GPU counts its steps. WGSL twin: `toward_sun`.
+pub fn toward_sun(cos_sun: f64) -> f64 {
+    saturate((cos_sun - AWAY_FROM_SUN_COS) / (TOWARD_SUN_COS - AWAY_FROM_SUN_COS))
 }
 
 /// The sun's elevation, as the sine at the sample, below which a sample takes its sun from the
 /// light march even where the cloud shadow map could give it ([`shadow_map_lights`]): the map
 /// holds each sun line's optical depth against altitude, and the long, nearly level sun lines
-/// of a low sun cross several clouds between its knots. Sin 10°: at a 4° sun the map put
-/// `MEDIUM` 7 % off the converged march of the bench's sunset (over the 5 % its preset keeps),
-/// at 10° 4 %.
+/// of a low sun cross several clouds between its knots. Sin 10°: the lowest sun at which the
+/// map kept `MEDIUM` within its 5 % of the converged march in the bench's sunset view.
 pub const SHADOW_MAP_MIN_SUN_MU: f64 = 0.173_648_177_666_930_33;
 
 /// Whether a sample may read its sun's optical depth from the cloud shadow map

@@ -86,8 +86,13 @@ fn ray_transmittance_cutoff(cutoff: f32, cos_sun: f32, t_max: f32) -> f32 {
     if t_max < FAR_AWAY {
         return cutoff;
     }
-    let toward = saturate((cos_sun - AWAY_FROM_SUN_COS) / (TOWARD_SUN_COS - AWAY_FROM_SUN_COS));
-    return min(cutoff * mix(AWAY_FROM_SUN_CUTOFF_GAIN, 1.0, toward), 1.0);
+    return min(cutoff * mix(AWAY_FROM_SUN_CUTOFF_GAIN, 1.0, toward_sun(cos_sun)), 1.0);
+}
+
+// How far a view ray at `cos_sun` is toward the sun: 0 from AWAY_FROM_SUN_COS out, 1 within
+// TOWARD_SUN_COS, linear between. Rust: `toward_sun`.
+fn toward_sun(cos_sun: f32) -> f32 {
+    return saturate((cos_sun - AWAY_FROM_SUN_COS) / (TOWARD_SUN_COS - AWAY_FROM_SUN_COS));
 }
 
 // Whether a sample may read its sun from the cloud shadow map: not on a view ray within about
@@ -391,8 +396,7 @@ fn march_step(ray: ptr<function, MarchRay>, ta: f32, tb: f32, clear_from: f32) -
 // AWAY_FROM_SUN_COS on, linear between, rounded down after adding the ray's jitter (0-1) so the
 // accumulated frames change smoothly with the angle, at least 1 (0 for 0). Rust: `ray_light_steps`.
 fn ray_light_steps(light_steps: u32, cos_sun: f32, away_share: f32, jitter: f32) -> u32 {
-    let toward = saturate((cos_sun - AWAY_FROM_SUN_COS) / (TOWARD_SUN_COS - AWAY_FROM_SUN_COS));
-    let share = away_share + (1.0 - away_share) * toward;
+    let share = away_share + (1.0 - away_share) * toward_sun(cos_sun);
     if light_steps == 0u {
         return 0u;
     }
