@@ -14,7 +14,9 @@ use bevy::{
     reflect::{PartialReflect, structs::Struct},
 };
 
-use crate::{layers::CloudLayer, render::VolumetricClouds, world::CloudWorld};
+use crate::{
+    layers::CloudLayer, render::VolumetricClouds, sky::stars::StarField, world::CloudWorld,
+};
 
 /// A component or resource whose values the renderer cleans before use.
 pub(crate) trait Sanitize: Struct + Clone {
@@ -33,6 +35,13 @@ impl Sanitize for CloudLayer {
 
 impl Sanitize for VolumetricClouds {
     const TYPE_NAME: &'static str = "VolumetricClouds";
+    fn sanitized_copy(&self) -> Self {
+        self.sanitized()
+    }
+}
+
+impl Sanitize for StarField {
+    const TYPE_NAME: &'static str = "StarField";
     fn sanitized_copy(&self) -> Self {
         self.sanitized()
     }
@@ -121,28 +130,37 @@ pub(crate) fn report_corrections<C: Sanitize + Component>(
     }
 }
 
-/// Warns once per field about the values of a changed [`CloudWorld`] that the renderer
-/// replaces.
-fn report_world_corrections(world: Option<Res<CloudWorld>>, mut reported: Local<HashSet<String>>) {
-    let Some(world) = world.filter(|world| world.is_changed()) else {
+/// Warns once per field about the values of a changed resource (a [`CloudWorld`], a
+/// [`StarField`]) that the renderer replaces.
+fn report_resource_corrections<R: Sanitize + Resource>(
+    resource: Option<Res<R>>,
+    mut reported: Local<HashSet<String>>,
+) {
+    let Some(resource) = resource.filter(|resource| resource.is_changed()) else {
         return;
     };
-    for correction in unreported(&mut reported, corrections(&*world)) {
+    for correction in unreported(&mut reported, corrections(&*resource)) {
         warn!(
-            "CloudWorld::{} is {}, which cannot be drawn; using {} (see CloudWorld::sanitize)",
-            correction.field, correction.given, correction.used,
+            "{}::{} is {}, which cannot be drawn; using {} (see {}::sanitize)",
+            R::TYPE_NAME,
+            correction.field,
+            correction.given,
+            correction.used,
+            R::TYPE_NAME,
         );
     }
 }
 
-/// Adds the reports for [`CloudLayer`], [`VolumetricClouds`] and [`CloudWorld`].
+/// Adds the reports for [`CloudLayer`], [`VolumetricClouds`], [`CloudWorld`] and
+/// [`StarField`].
 pub(crate) fn plugin(app: &mut App) {
     app.add_systems(
         PostUpdate,
         (
             report_corrections::<CloudLayer>,
             report_corrections::<VolumetricClouds>,
-            report_world_corrections,
+            report_resource_corrections::<CloudWorld>,
+            report_resource_corrections::<StarField>,
         ),
     );
 }

@@ -19,6 +19,7 @@ use crate::reference::{
     noise::{self as noise_ref},
     render as march_ref, shadow,
 };
+use crate::sky::stars;
 
 /// Every shader of the crate, by path under `src/render/`, with its source.
 const SHADERS: &[(&str, &str)] = &[
@@ -71,6 +72,13 @@ fn rust_constants() -> Vec<(&'static str, Vec<f64>)> {
     let slot = |s: noise_ref::FbmSlot| vec![s as f64];
     vec![
         ("FAR_AWAY", scalar(composite::FAR_AWAY)),
+        ("STAR_CELLS", scalar(stars::STAR_CELLS.into())),
+        ("FAINTEST_MAGNITUDE", scalar(stars::FAINTEST_MAGNITUDE)),
+        (
+            "EXTINCTION_MAG_PER_AIRMASS",
+            scalar(stars::EXTINCTION_MAG_PER_AIRMASS),
+        ),
+        ("STAR_CELL_MARGIN", scalar(stars::STAR_CELL_MARGIN)),
         ("DEPTH_TOLERANCE", scalar(composite::DEPTH_TOLERANCE)),
         ("MIN_WEIGHT_SUM", scalar(composite::MIN_WEIGHT_SUM)),
         (

@@ -86,6 +86,11 @@ impl Plugin for CloudRenderPlugin {
             weather_map::load_weather_map_shader(app);
         }
         shadow::build(app);
+        if app.get_sub_app(RenderApp).is_some() {
+            app.add_plugins(bevy::render::extract_resource::ExtractResourcePlugin::<
+                crate::sky::stars::StarSky,
+            >::default());
+        }
         if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
             render_app
                 .init_resource::<growth::GrowthComputes>()

@@ -599,7 +599,10 @@ pub(crate) fn extract_cloud_views(
     frame: Extract<Res<FrameCount>>,
     haze: Extract<Option<Res<Haze>>>,
     world: Extract<Option<Res<CloudWorld>>>,
+    stars: Extract<Option<Res<crate::sky::stars::StarSky>>>,
 ) {
+    // The stars are drawn by the cloud composite: a clear night sky runs it for them alone.
+    let stars = stars.as_deref().is_some_and(|s| s.zero_magnitude_lux > 0.0);
     let sun = CloudSun::pick(lights.iter(), !atmospheres.is_empty());
     let earth = CloudWorld::default();
     let world = world.as_deref().unwrap_or(&earth);
@@ -627,8 +630,8 @@ pub(crate) fn extract_cloud_views(
             frame.0,
         );
         let haze = haze_settings(haze, settings, &march, &march_layers);
-        // No cloud and no haze: the pass does not run.
-        if !camera.is_active || (march_layers.is_empty() && !haze.is_active()) {
+        // No cloud, no haze and no stars: the pass does not run.
+        if !camera.is_active || (march_layers.is_empty() && !haze.is_active() && !stars) {
             entity_commands.remove::<ExtractedCloudView>();
             continue;
         }

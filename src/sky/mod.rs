@@ -9,12 +9,15 @@
 //!   the [`GeoOrigin`] at the [`SceneClock`]'s instant, and dims to
 //!   nothing as the sun's disc sets; then it is the moon's light, aimed from the moon with its
 //!   illuminance for the phase, until the moon sets or the sun rises.
+//! - [`stars::StarField`] puts stars on the night sky, turning with the sidereal time; the
+//!   clouds hide them.
 
 pub mod light;
 pub mod moon;
 #[cfg(test)]
 mod pvlib;
 pub mod solar;
+pub mod stars;
 mod sun;
 
 use bevy::prelude::*;
@@ -44,6 +47,9 @@ impl Plugin for SkyPlugin {
             .init_resource::<GeoOrigin>()
             .init_resource::<SunPosition>()
             .init_resource::<MoonPosition>()
+            .init_resource::<stars::StarField>()
+            .init_resource::<stars::StarSky>()
+            .register_type::<stars::StarField>()
             .register_type::<SceneClock>()
             .register_type::<GeoOrigin>()
             .register_type::<Sun>()
@@ -51,7 +57,9 @@ impl Plugin for SkyPlugin {
                 Update,
                 (
                     advance_scene_clock.in_set(CloudscapeSystems::Clock),
-                    sun::place_sun.in_set(CloudscapeSystems::Sun),
+                    (sun::place_sun, stars::place_stars)
+                        .chain()
+                        .in_set(CloudscapeSystems::Sun),
                 ),
             );
     }

@@ -87,3 +87,119 @@ fn atmosphere_sky_and_sunlit_ground() {
         "no ground pixel clips"
     );
 }
+
+/// The stars at night: a clear sky shows the star field where its CPU twin puts it and as bright
+/// as the twin says; an overcast deck hides it; by day there is none.
+#[test]
+fn stars_shine_at_night_where_the_twin_puts_them_and_clouds_hide_them() {
+    use bevy::{camera::Exposure, math::DVec3};
+    use bevy_cloudscape::{
+        prelude::*,
+        scene::{SceneClock, UtcInstant},
+        sky::{
+            Sun,
+            stars::{StarField, star_radiance},
+        },
+    };
+    let size = UVec2::new(160, 90);
+    let ev100 = -4.0;
+    // Looking south-east, 50° up, from Bern: the moon is down at 01:00 UTC on 2021-05-11 (new
+    // moon) and the sun 26° below the horizon.
+    let camera_transform = crate::common::scenes::looking(Vec3::new(0.0, 2.0, 0.0), 50.0, 135.0);
+    let render = |time: &str, stars: bool, deck: bool| {
+        let instant: UtcInstant = time.parse().unwrap();
+        let mut app = Headless::new(size, TextureFormat::Rgba16Float, |app| {
+            app.add_plugins(CloudscapePlugin)
+                .insert_resource(CloudNoiseSettings(crate::common::scenes::small_recipe()))
+                .insert_resource(SceneClock::at(instant))
+                .insert_resource(StarField {
+                    enabled: stars,
+                    ..default()
+                });
+        });
+        app.world()
+            .spawn((DirectionalLight::default(), Sun::default()));
+        if deck {
+            app.world().spawn(crate::common::scenes::layer(
+                bevy_cloudscape::layers::CloudKind::Stratus,
+                1.0,
+            ));
+        }
+        let target = app.target.clone();
+        app.world().spawn((
+            Camera3d::default(),
+            Projection::Perspective(PerspectiveProjection {
+                fov: 60f32.to_radians(),
+                ..default()
+            }),
+            camera_transform,
+            Exposure { ev100 },
+            Tonemapping::None,
+            VolumetricClouds::MEDIUM,
+            RenderTarget::Image(target.into()),
+        ));
+        app.run_frames(20);
+        app.read_target()
+    };
+    let night = "2021-05-11T01:00:00Z";
+    let with = render(night, true, false);
+    let without = render(night, false, false);
+    with.save_png(output_dir().join("stars.png"), 1.0);
+
+    // The twin at every pixel's centre: the same view, exposure and sky.
+    let origin = bevy_cloudscape::scene::GeoOrigin::default();
+    let instant: UtcInstant = night.parse().unwrap();
+    let celestial =
+        bevy_cloudscape::sky::stars::celestial_from_scene(&origin, instant.unix_seconds() as f64);
+    let exposure = f64::from(Exposure { ev100 }.exposure());
+    let tan_half = (30f64).to_radians().tan();
+    let aspect = f64::from(size.x) / f64::from(size.y);
+    let sigma = bevy_cloudscape::sky::stars::STAR_BLUR_PIXELS * 2.0 * tan_half / f64::from(size.y);
+    let zero_lux = bevy_cloudscape::sky::stars::zero_magnitude_lux();
+    let rotation = camera_transform.rotation.as_dquat();
+    let (mut peak_gpu, mut peak_twin, mut spots, mut diff2, mut twin2) =
+        (0.0f64, 0.0f64, 0, 0.0, 0.0);
+    for y in 0..size.y {
+        for x in 0..size.x {
+            let ndc_x = (2.0 * (f64::from(x) + 0.5) / f64::from(size.x) - 1.0) * tan_half * aspect;
+            let ndc_y = (1.0 - 2.0 * (f64::from(y) + 0.5) / f64::from(size.y)) * tan_half;
+            let direction = (rotation * DVec3::new(ndc_x, ndc_y, -1.0)).normalize();
+            let elevation = direction.y.asin().to_degrees();
+            let twin = star_radiance(0, celestial * direction, elevation, sigma, zero_lux);
+            let twin = exposure * (0.2126 * twin[0] + 0.7152 * twin[1] + 0.0722 * twin[2]);
+            let gpu = f64::from(with.luminance(x, y) - without.luminance(x, y));
+            peak_gpu = peak_gpu.max(gpu);
+            peak_twin = peak_twin.max(twin);
+            spots += usize::from(twin > 0.01);
+            diff2 += (gpu - twin).powi(2);
+            twin2 += twin * twin;
+        }
+    }
+    let relative = (diff2 / twin2).sqrt();
+    println!(
+        "stars: twin peak {peak_twin:.4}, GPU peak {peak_gpu:.4}, relative RMSE {relative:.3}, {spots} pixels above 0.01"
+    );
+    assert!(spots >= 5, "the view holds stars: {spots} pixels");
+    assert!(
+        relative < 0.1,
+        "the GPU's stars are the twin's: relative RMSE {relative:.3} (peaks {peak_gpu} and {peak_twin})"
+    );
+
+    // An overcast deck hides them; by day there are none.
+    let overcast = render(night, true, true);
+    let overcast_plain = render(night, false, true);
+    let hidden = (0..size.y)
+        .flat_map(|y| (0..size.x).map(move |x| (x, y)))
+        .map(|(x, y)| f64::from(overcast.luminance(x, y) - overcast_plain.luminance(x, y)))
+        .fold(0.0, f64::max);
+    assert!(
+        hidden < 0.01 * peak_twin,
+        "the deck hides the stars: {hidden} against {peak_twin}"
+    );
+    let day = "2021-05-11T11:00:00Z";
+    assert_eq!(
+        render(day, true, false).rgba,
+        render(day, false, false).rgba,
+        "no stars by day"
+    );
+}

@@ -25,6 +25,12 @@ const NO_HIT: f32 = -1.0;
 struct ViewGround {
     camera_up_altitude: vec4<f32>,
     planet_radius_m: f32,
+    // The star field (`star_light`): celestial coordinates from world directions; then x the
+    // illuminance of a magnitude-0 star outside the atmosphere (lux; 0: no stars), y a star's
+    // spot's standard deviation (rad); and the field's seed.
+    celestial_from_world: mat3x3<f32>,
+    stars: vec4<f32>,
+    star_seed: u32,
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -156,4 +162,82 @@ fn surface_distance(view_from_clip: mat4x4<f32>, ndc: vec2<f32>, depth: f32) -> 
     }
     let surface_view = view_from_clip * vec4<f32>(ndc, depth, 1.0);
     return length(surface_view.xyz / surface_view.w);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The stars behind the clouds
+// ---------------------------------------------------------------------------------------------
+
+// Rust: the constants of the same names in `src/sky/stars.rs`.
+const STAR_CELLS: u32 = 39u;
+const FAINTEST_MAGNITUDE: f32 = 6.5;
+const EXTINCTION_MAG_PER_AIRMASS: f32 = 0.2;
+const STAR_CELL_MARGIN: f32 = 0.15;
+const PI: f32 = 3.141592653589793;
+
+// Rust: `star_hash`.
+fn star_hash(value: u32) -> u32 {
+    var x = value;
+    x ^= x >> 16u;
+    x *= 0x7feb352du;
+    x ^= x >> 15u;
+    x *= 0x846ca68bu;
+    x ^= x >> 16u;
+    return x;
+}
+
+// The k-th random number of a cell's hash h, in (0, 1). Rust: `unit`.
+fn star_unit(h: u32, k: u32) -> f32 {
+    return (f32(star_hash(h + k) >> 8u) + 0.5) / 16777216.0;
+}
+
+// The radiance (cd/m^2, linear RGB, before exposure) of the star field along the world direction
+// `direction` (unit): the star of the celestial cube-map cell the direction falls in, a Gaussian
+// spot, dimmed by the air mass. 0 without stars or below the horizon. Rust: `star_radiance`
+// (with `star_cell` and `cell_star`).
+fn star_light(ground: ViewGround, direction: vec3<f32>) -> vec3<f32> {
+    let sin_elevation = dot(direction, ground.camera_up_altitude.xyz);
+    if !(ground.stars.x > 0.0) || !(sin_elevation > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let c = normalize(ground.celestial_from_world * direction);
+    let d = abs(c);
+    var face = 0u;
+    var major = vec3<f32>(1.0, 0.0, 0.0);
+    var u = vec3<f32>(0.0, 1.0, 0.0);
+    var v = vec3<f32>(0.0, 0.0, 1.0);
+    var ab = vec2<f32>(c.y, c.z) / d.x;
+    if d.x >= d.y && d.x >= d.z {
+        face = select(0u, 1u, c.x < 0.0);
+        major = vec3<f32>(sign(c.x), 0.0, 0.0);
+    } else if d.y >= d.z {
+        face = select(2u, 3u, c.y < 0.0);
+        major = vec3<f32>(0.0, sign(c.y), 0.0);
+        u = vec3<f32>(0.0, 0.0, 1.0);
+        v = vec3<f32>(1.0, 0.0, 0.0);
+        ab = vec2<f32>(c.z, c.x) / d.y;
+    } else {
+        face = select(4u, 5u, c.z < 0.0);
+        major = vec3<f32>(0.0, 0.0, sign(c.z));
+        u = vec3<f32>(1.0, 0.0, 0.0);
+        v = vec3<f32>(0.0, 1.0, 0.0);
+        ab = vec2<f32>(c.x, c.y) / d.z;
+    }
+    let n = f32(STAR_CELLS);
+    let cell = min(vec2<u32>(floor(0.5 * (atan(ab) * (4.0 / PI) + 1.0) * n)), vec2<u32>(STAR_CELLS - 1u));
+    let index = (face * STAR_CELLS + cell.y) * STAR_CELLS + cell.x;
+    let h = star_hash(ground.star_seed ^ star_hash(index));
+    let inner = 1.0 - 2.0 * STAR_CELL_MARGIN;
+    let s = -1.0 + 2.0 * (vec2<f32>(cell) + STAR_CELL_MARGIN + inner * vec2<f32>(star_unit(h, 0u), star_unit(h, 1u))) / n;
+    let place = tan(s * (PI / 4.0));
+    let star = normalize(major + u * place.x + v * place.y);
+    let magnitude = FAINTEST_MAGNITUDE + 2.0 * log2(star_unit(h, 2u)) * 0.30102999566398120;
+    let elevation_deg = degrees(asin(sin_elevation));
+    let mass = 1.0 / (sin_elevation + 0.50572 * pow(elevation_deg + 6.07995, -1.6364));
+    let sigma = ground.stars.y;
+    let offset = c - star;
+    let spot = exp(-dot(offset, offset) / (2.0 * sigma * sigma)) / (2.0 * PI * sigma * sigma);
+    let lux = ground.stars.x * pow(10.0, -0.4 * (magnitude + EXTINCTION_MAG_PER_AIRMASS * mass));
+    let colour = mix(vec3<f32>(0.80, 0.88, 1.0), vec3<f32>(1.0, 0.80, 0.60), star_unit(h, 3u));
+    return colour / dot(colour, vec3<f32>(0.2126, 0.7152, 0.0722)) * (lux * spot);
 }

@@ -83,7 +83,7 @@ use bevy::{
 
 use super::view::ExtractedCloudView;
 pub use super::view::{TemporalUpsampling, low_res_size};
-use crate::reference::composite::hit_blend;
+use crate::{reference::composite::hit_blend, sky::stars::StarSky};
 
 /// Loads `composite.wgsl` (the shader library of the upsample weights) and `upsample.wgsl`.
 pub(crate) fn load_composite_shaders(app: &mut App) {
@@ -287,6 +287,13 @@ pub(crate) struct GpuViewGround {
     pub camera_up_altitude: Vec4,
     /// The planet's radius, m.
     pub planet_radius_m: f32,
+    /// Celestial coordinates from world directions ([`crate::sky::stars::StarSky`]).
+    pub celestial_from_world: Mat3,
+    /// x: the illuminance of a magnitude-0 star outside the atmosphere, lux (0: no stars); y:
+    /// the standard deviation of a star's spot, rad; z, w: 0.
+    pub stars: Vec4,
+    /// The star field's seed.
+    pub star_seed: u32,
 }
 
 /// Where a view's camera was and how it projected, for the next frame's reprojection.
@@ -455,7 +462,9 @@ pub(crate) fn prepare_composite_targets(
     frame: Res<FrameCount>,
     mut states: Local<HashMap<Entity, HistoryState>>,
     views: Query<(Entity, &ViewTarget, &ExtractedView, &ExtractedCloudView)>,
+    stars: Option<Res<StarSky>>,
 ) {
+    let stars = stars.map_or_else(StarSky::default, |s| *s);
     // Views that are gone start over if they come back.
     states.retain(|entity, _| views.contains(*entity));
     for (entity, target, extracted, view) in &views {
@@ -544,6 +553,14 @@ pub(crate) fn prepare_composite_targets(
                     settings.camera_altitude_m as f32,
                 ),
                 planet_radius_m: settings.planet_radius_m as f32,
+                celestial_from_world: stars.celestial_from_scene,
+                stars: Vec4::new(
+                    stars.zero_magnitude_lux,
+                    star_sigma_rad(extracted.clip_from_view, full),
+                    0.0,
+                    0.0,
+                ),
+                star_seed: stars.seed,
             });
             ground.set_label(Some("cloud_view_ground"));
             ground.write_buffer(&device, &queue);
@@ -568,6 +585,20 @@ pub(crate) fn prepare_composite_targets(
                 entity_commands.remove::<CloudShaftTarget>();
             }
         }
+    }
+}
+
+/// The standard deviation of a star's spot for a view projecting with `clip_from_view` onto
+/// `size` pixels: [`STAR_BLUR_PIXELS`](crate::sky::stars::STAR_BLUR_PIXELS) times the angle a
+/// pixel subtends at the view's centre (a perspective projection's `2 / (P₁₁ · height)`), rad;
+/// 1 mrad for a projection that has none.
+fn star_sigma_rad(clip_from_view: Mat4, size: UVec2) -> f32 {
+    let pixel = 2.0 / (clip_from_view.y_axis.y * size.y.max(1) as f32);
+    let sigma = crate::sky::stars::STAR_BLUR_PIXELS as f32 * pixel;
+    if sigma.is_finite() && sigma > 0.0 {
+        sigma
+    } else {
+        1e-3
     }
 }
 

@@ -13,8 +13,8 @@
 #import bevy_cloudscape::view_depth::{view, depth_prepass}
 #import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
 #import bevy_cloudscape::composite::{
-    ViewGround, footprint, footprint_texel, upsample_weights, uv_to_ndc, surface_distance,
-    view_direction, view_ray_end,
+    FAR_AWAY, ViewGround, footprint, footprint_texel, upsample_weights, uv_to_ndc,
+    surface_distance, star_light, view_direction, view_ray_end,
 }
 
 @group(0) @binding(2) var low_colour: texture_2d<f32>;
@@ -38,11 +38,28 @@ fn fragment(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
     for (var k = 0; k < 4; k++) {
         sum += weights[k] * textureLoad(low_colour, footprint_texel(f, k, size), 0);
     }
-    return sum;
+    return with_stars(sum, direction, distance);
 }
 
-// The full-resolution (L, T) at this pixel, composited as it is.
+// (L, T) with the stars behind the clouds added where the pixel sees the sky: the composite
+// `scene * T + L` then shows them through the clouds' transmittance, over the scene's sky.
+fn with_stars(colour: vec4<f32>, direction: vec3<f32>, distance: f32) -> vec4<f32> {
+    if distance < FAR_AWAY || !(ground.stars.x > 0.0) {
+        return colour;
+    }
+    return vec4<f32>(colour.rgb + colour.a * view.exposure * star_light(ground, direction), colour.a);
+}
+
+// The full-resolution (L, T) at this pixel, composited as it is, with the stars.
 @fragment
 fn copy(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
-    return textureLoad(low_colour, vec2<i32>(in.position.xy), 0);
+    let colour = textureLoad(low_colour, vec2<i32>(in.position.xy), 0);
+    if !(ground.stars.x > 0.0) {
+        return colour;
+    }
+    let depth = textureLoad(depth_prepass, vec2<i32>(in.position.xy), 0);
+    let ndc = uv_to_ndc(in.uv);
+    let direction = view_direction(view.view_from_clip, view.world_from_view, ndc);
+    let distance = view_ray_end(ground, direction, surface_distance(view.view_from_clip, ndc, depth));
+    return with_stars(colour, direction, distance);
 }
