@@ -98,7 +98,7 @@ pub(crate) struct Cli {
     /// forecast's low cover rises and falls).
     #[arg(long)]
     pub(crate) growth: bool,
-    /// Render the look board (`docs/look.md`): eight views of the bundled week, one weather
+    /// Render the look board (`docs/look.md`): nine views of the bundled week, one weather
     /// each, into the folder `--out` (`frame_000.png`, …) and tiled into `board.png` there.
     /// Headless only; `--camera`, `--time`, `--azimuth`, `--ev100` and `--frames` are the
     /// board's.

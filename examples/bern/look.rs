@@ -21,9 +21,9 @@ pub(crate) struct Shot {
     pub(crate) pitch_deg: Option<f32>,
 }
 
-/// The board, left to right and top to bottom, four views per row. The times are the bundled
+/// The board, left to right and top to bottom, three views per row. The times are the bundled
 /// forecast's hours with that weather (`assets/weather/bern.json`).
-pub(crate) const BOARD: [Shot; 8] = [
+pub(crate) const BOARD: [Shot; 9] = [
     Shot {
         label: "clear morning",
         viewpoint: Viewpoint::Gurten,
@@ -96,10 +96,19 @@ pub(crate) const BOARD: [Shot; 8] = [
         lift_m: 0.0,
         pitch_deg: None,
     },
+    Shot {
+        label: "moonlit night",
+        viewpoint: Viewpoint::Gurten,
+        time: "2021-05-04T02:30:00Z",
+        azimuth_deg: Some(135.0),
+        ev100: -5.0,
+        lift_m: 0.0,
+        pitch_deg: None,
+    },
 ];
 
 /// Views per row of the contact sheet.
-pub(crate) const BOARD_COLUMNS: u32 = 4;
+pub(crate) const BOARD_COLUMNS: u32 = 3;
 
 /// Puts the current shot of the board on screen: its time, its view and its exposure. Each
 /// shot is a camera cut (another day, another weather): the clouds' temporal accumulation starts
@@ -137,7 +146,7 @@ pub(crate) fn follow_look_shots(
     }
 }
 
-/// Tiles the board's images (`frame_000.png`, … in `folder`) into `folder/board.png`, four per
+/// Tiles the board's images (`frame_000.png`, … in `folder`) into `folder/board.png`, three per
 /// row in [`BOARD`]'s order.
 pub(crate) fn write_board(folder: &Path) -> Result<PathBuf, String> {
     let tiles = (0..BOARD.len())

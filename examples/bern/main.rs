@@ -51,7 +51,7 @@
 //! | `--growth` | the low clouds grow with the cloud-growth automaton: they form and dissolve as the low cover changes | off |
 //! | `--no-cloud-shadows` | turn the cloud shadow map off (to compare, or to time its cost) | on |
 //! | `--no-sky-light` | the camera's environment and ambient light stay the clear sky's (`CloudSkyLight` off; CI compares frames with and without clouds so) | on |
-//! | `--look` | headless: render the look board (`docs/look.md`), eight views of the week's weathers, into the folder `--out` and tile them into `board.png` there | off |
+//! | `--look` | headless: render the look board (`docs/look.md`), nine views of the week's weathers, into the folder `--out` and tile them into `board.png` there | off |
 //! | `--dem PATH` | elevation file (ESRI ASCII grid or `GeoTIFF`, WGS 84 degrees) | `assets/terrain/bern_globe30s.asc` |
 //!
 //! A bad flag exits with status 2 and a message. Without a display, run with `--headless`.
