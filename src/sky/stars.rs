@@ -412,6 +412,37 @@ mod tests {
     }
 
     #[test]
+    fn stars_need_a_sun_light_below_the_horizon() {
+        use crate::scene::UtcInstant;
+        use crate::sky::solar::{Observer, solar_position_unix_seconds};
+        use bevy::ecs::system::RunSystemOnce;
+        let sky_at = |time: &str, with_sun: bool| {
+            let instant: UtcInstant = time.parse().unwrap();
+            let mut world = World::new();
+            world.insert_resource(SceneClock::at(instant));
+            world.insert_resource(SunPosition(Some(solar_position_unix_seconds(
+                &Observer::from(&GeoOrigin::default()),
+                instant.unix_seconds() as f64,
+                &SolarOptions::default(),
+            ))));
+            world.init_resource::<StarSky>();
+            if with_sun {
+                world.spawn(Sun::default());
+            }
+            world.run_system_once(place_stars).unwrap();
+            *world.resource::<StarSky>()
+        };
+        // Bern at 01:00 UTC (the sun 26° down) and 11:00 UTC (61° up) on 2021-05-11.
+        let night = sky_at("2021-05-11T01:00:00Z", true);
+        assert!((f64::from(night.zero_magnitude_lux) / zero_magnitude_lux() - 1.0).abs() < 1e-6);
+        assert_eq!(sky_at("2021-05-11T11:00:00Z", true).zero_magnitude_lux, 0.0);
+        assert_eq!(
+            sky_at("2021-05-11T01:00:00Z", false).zero_magnitude_lux,
+            0.0
+        );
+    }
+
+    #[test]
     fn a_brightness_that_cannot_be_drawn_is_replaced() {
         let field = |brightness| StarField {
             brightness,
