@@ -156,7 +156,9 @@ fn stars_shine_at_night_where_the_twin_puts_them_and_clouds_hide_them() {
     let exposure = f64::from(Exposure { ev100 }.exposure());
     let tan_half = (30f64).to_radians().tan();
     let aspect = f64::from(size.x) / f64::from(size.y);
-    let sigma = bevy_cloudscape::sky::stars::STAR_BLUR_PIXELS * 2.0 * tan_half / f64::from(size.y);
+    // The crate's pixel angle: the field of view over the image height.
+    let sigma =
+        bevy_cloudscape::sky::stars::STAR_BLUR_PIXELS * 60f64.to_radians() / f64::from(size.y);
     let zero_lux = bevy_cloudscape::sky::stars::zero_magnitude_lux();
     let rotation = camera_transform.rotation.as_dquat();
     let (mut peak_gpu, mut peak_twin, mut spots, mut diff2, mut twin2) =

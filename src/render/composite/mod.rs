@@ -556,7 +556,8 @@ pub(crate) fn prepare_composite_targets(
                 celestial_from_world: stars.celestial_from_scene,
                 stars: Vec4::new(
                     stars.zero_magnitude_lux,
-                    star_sigma_rad(extracted.clip_from_view, full),
+                    // The march's pixel angle is the full-resolution view's.
+                    (crate::sky::stars::STAR_BLUR_PIXELS * settings.pixel_angle_rad) as f32,
                     0.0,
                     0.0,
                 ),
@@ -585,20 +586,6 @@ pub(crate) fn prepare_composite_targets(
                 entity_commands.remove::<CloudShaftTarget>();
             }
         }
-    }
-}
-
-/// The standard deviation of a star's spot for a view projecting with `clip_from_view` onto
-/// `size` pixels: [`STAR_BLUR_PIXELS`](crate::sky::stars::STAR_BLUR_PIXELS) times the angle a
-/// pixel subtends at the view's centre (a perspective projection's `2 / (P₁₁ · height)`), rad;
-/// 1 mrad for a projection that has none.
-fn star_sigma_rad(clip_from_view: Mat4, size: UVec2) -> f32 {
-    let pixel = 2.0 / (clip_from_view.y_axis.y * size.y.max(1) as f32);
-    let sigma = crate::sky::stars::STAR_BLUR_PIXELS as f32 * pixel;
-    if sigma.is_finite() && sigma > 0.0 {
-        sigma
-    } else {
-        1e-3
     }
 }
 

@@ -21,45 +21,52 @@
 @group(0) @binding(3) var low_distance: texture_2d<f32>;
 @group(0) @binding(4) var<uniform> ground: ViewGround;
 
-@fragment
-fn fragment(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
+// This pixel's view ray: its world direction and where it ends (`view_ray_end`), m.
+struct PixelRay {
+    direction: vec3<f32>,
+    distance: f32,
+}
+
+fn pixel_ray(in: FullscreenVertexOutput) -> PixelRay {
     let depth = textureLoad(depth_prepass, vec2<i32>(in.position.xy), 0);
     let ndc = uv_to_ndc(in.uv);
     let direction = view_direction(view.view_from_clip, view.world_from_view, ndc);
-    let distance = view_ray_end(ground, direction, surface_distance(view.view_from_clip, ndc, depth));
+    return PixelRay(direction, view_ray_end(ground, direction, surface_distance(view.view_from_clip, ndc, depth)));
+}
+
+@fragment
+fn fragment(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
+    let ray = pixel_ray(in);
     let size = vec2<i32>(textureDimensions(low_colour));
     let f = footprint(in.uv, size);
     var taps = vec4<f32>(0.0);
     for (var k = 0; k < 4; k++) {
         taps[k] = textureLoad(low_distance, footprint_texel(f, k, size), 0).x;
     }
-    let weights = upsample_weights(f, taps, distance);
+    let weights = upsample_weights(f, taps, ray.distance);
     var sum = vec4<f32>(0.0);
     for (var k = 0; k < 4; k++) {
         sum += weights[k] * textureLoad(low_colour, footprint_texel(f, k, size), 0);
     }
-    return with_stars(sum, direction, distance);
+    return with_stars(sum, ray);
 }
 
 // (L, T) with the stars behind the clouds added where the pixel sees the sky: the composite
 // `scene * T + L` then shows them through the clouds' transmittance, over the scene's sky.
-fn with_stars(colour: vec4<f32>, direction: vec3<f32>, distance: f32) -> vec4<f32> {
-    if distance < FAR_AWAY || !(ground.stars.x > 0.0) {
+fn with_stars(colour: vec4<f32>, ray: PixelRay) -> vec4<f32> {
+    if ray.distance < FAR_AWAY {
         return colour;
     }
-    return vec4<f32>(colour.rgb + colour.a * view.exposure * star_light(ground, direction), colour.a);
+    return vec4<f32>(colour.rgb + colour.a * view.exposure * star_light(ground, ray.direction), colour.a);
 }
 
 // The full-resolution (L, T) at this pixel, composited as it is, with the stars.
 @fragment
 fn copy(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
     let colour = textureLoad(low_colour, vec2<i32>(in.position.xy), 0);
+    // Without stars the pixel's ray is not needed.
     if !(ground.stars.x > 0.0) {
         return colour;
     }
-    let depth = textureLoad(depth_prepass, vec2<i32>(in.position.xy), 0);
-    let ndc = uv_to_ndc(in.uv);
-    let direction = view_direction(view.view_from_clip, view.world_from_view, ndc);
-    let distance = view_ray_end(ground, direction, surface_distance(view.view_from_clip, ndc, depth));
-    return with_stars(colour, direction, distance);
+    return with_stars(colour, pixel_ray(in));
 }
