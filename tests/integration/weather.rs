@@ -65,15 +65,14 @@ fn low_cover(app: &App) -> Option<f32> {
         .and_then(|near| near.state.low_cover())
 }
 
-/// Updates the app until `done` or `limit` passes; returns the time it took.
-fn update_until(app: &mut App, limit: Duration, mut done: impl FnMut(&App) -> bool) -> Duration {
+/// Updates the app until `done`; fails once `limit` passes without it.
+fn update_until(app: &mut App, limit: Duration, mut done: impl FnMut(&App) -> bool) {
     let start = Instant::now();
     while !done(app) {
         assert!(start.elapsed() < limit, "not reached within {limit:?}");
         app.update();
         std::thread::sleep(Duration::from_millis(20));
     }
-    start.elapsed()
 }
 
 #[test]
@@ -105,10 +104,12 @@ fn replacing_a_forecast_file_updates_the_weather_and_bad_files_keep_the_last_goo
     // The file watcher needs a moment to start watching before a change is seen.
     std::thread::sleep(Duration::from_millis(500));
     std::fs::write(&file, bern_with_low_clouds(70.0)).unwrap();
-    let took = update_until(&mut app, Duration::from_secs(10), |app| {
+    // The 10 s limit only guards against a reload that never comes: the latency itself is the
+    // file watcher's debounce plus a frame, and a wall-clock bound here would measure the
+    // machine's load (tests run in parallel), not the reload.
+    update_until(&mut app, Duration::from_secs(10), |app| {
         low_cover(app) == Some(0.7)
     });
-    assert!(took < Duration::from_secs(2), "hot reload took {took:?}");
     app.update();
     assert_eq!(low_layer_coverage(&mut app), 0.7);
 
