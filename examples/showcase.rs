@@ -6,7 +6,8 @@
 //! ```
 //!
 //! Writes `DIR/SCENE.png` (default `showcase/`, 1280×720) for the scenes of the `bench` example
-//! plus a view of cumulus from above the layer, with the `HIGH` preset, after `N` frames of each
+//! plus a view of cumulus from above the layer and a cirrostratus veil around the sun (its 22°
+//! halo), with the `HIGH` preset, after `N` frames of each
 //! scene (default 24), over which the temporal accumulation averages the jittered frames.
 //! `--scene NAME` renders that scene alone.
 
@@ -18,7 +19,7 @@ use bevy::{camera::RenderTarget, prelude::*, render::render_resource::TextureFor
 use bevy_cloudscape::prelude::*;
 use common::{
     headless::Headless,
-    scenes::{Scene, showcase_scenes},
+    scenes::{self, Scene, showcase_scenes},
 };
 
 /// Renders the showcase cloud scenes to PNG, with no window.
@@ -48,6 +49,14 @@ fn scenes() -> Vec<Scene> {
     above.camera =
         Transform::from_xyz(0.0, 4_500.0, 0.0).looking_to(Vec3::new(0.0, -0.35, -1.0), Vec3::Y);
     scenes.push(above);
+    // A cirrostratus veil with the sun in the middle of the view: the 22° halo around it.
+    scenes.push(Scene {
+        name: "cirrostratus_halo",
+        camera: scenes::looking(Vec3::new(0.0, 2.0, 0.0), 35.0, 150.0),
+        sun_deg: (35.0, 150.0),
+        layers: vec![scenes::layer(CloudKind::Cirrostratus, 1.0)],
+        ..scenes[0].clone()
+    });
     for scene in &mut scenes {
         scene.settings = VolumetricClouds::HIGH;
     }

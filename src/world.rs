@@ -52,6 +52,13 @@ pub struct CloudWorld {
     pub phase_g_back: f32,
     /// Weight of the backward lobe (0–1). Default 0.2.
     pub phase_blend: f32,
+    /// Share of the light that a cirrostratus veil's ice crystals scatter into the 22° halo
+    /// around the sun (and the moon, whose light is the `Sun` light at night), 0–1: the ring of
+    /// [`halo_phase`](crate::reference::render::halo_phase) takes this share of the layer's
+    /// phase function, the dual lobe the rest. 0 turns halos off. Other cloud kinds make none.
+    /// Default 0.05, a visual choice (a ring clearly brighter than the veil beside it, as in
+    /// photographs of a halo), not a measured crystal habit.
+    pub halo_share: f32,
 }
 
 impl CloudWorld {
@@ -66,6 +73,7 @@ impl CloudWorld {
         phase_g_forward: 0.8,
         phase_g_back: -0.3,
         phase_blend: 0.2,
+        halo_share: 0.05,
     };
 
     /// A cleaned copy that the renderer can trust; see [`CloudWorld::sanitize`].
@@ -88,6 +96,7 @@ impl CloudWorld {
     /// - `phase_g_forward`, `phase_g_back`: clamped to −0.999–0.999 (±1 is a delta, which the
     ///   phase function cannot evaluate); NaN becomes the default (0.8, −0.3).
     /// - `phase_blend`: clamped to 0–1; NaN becomes 0.2.
+    /// - `halo_share`: clamped to 0–1; NaN becomes 0.05.
     pub fn sanitize(&mut self) {
         use crate::{
             clean::{clamp_or, positive_or},
@@ -117,6 +126,7 @@ impl CloudWorld {
         );
         self.phase_g_back = clamp_or(self.phase_g_back, -max_g, max_g, defaults.phase_g_back);
         self.phase_blend = clamp_or(self.phase_blend, 0.0, 1.0, defaults.phase_blend);
+        self.halo_share = clamp_or(self.halo_share, 0.0, 1.0, defaults.halo_share);
     }
 
     /// The planet's centre for a camera at `camera_m` (scene metres), as [`CloudWorld::anchor`]
@@ -197,6 +207,10 @@ mod tests {
             &[(nan, 0.8), (1.0, 0.999), (-2.0, -0.999)],
         );
         check(|w| &mut w.phase_g_back, &[(nan, -0.3), (0.5, 0.5)]);
+        check(
+            |w| &mut w.halo_share,
+            &[(nan, 0.05), (2.0, 1.0), (-1.0, 0.0), (0.3, 0.3)],
+        );
         check(
             |w| &mut w.phase_blend,
             &[(nan, 0.2), (1.5, 1.0), (-0.5, 0.0)],

@@ -28,6 +28,8 @@ pub(crate) struct BernOptions {
     pub(crate) clouds: bool,
     /// `--azimuth`: the view direction, degrees clockwise from north.
     pub(crate) azimuth_deg: Option<f32>,
+    /// `--pitch`: the view's angle above the horizon, degrees (negative: down).
+    pub(crate) pitch_deg: Option<f32>,
     /// `--growth`: the low clouds grow with the automaton (`CloudGrowth`).
     pub(crate) growth: bool,
     /// `--look`: the headless shots are the look board's views ([`look::BOARD`]).
@@ -82,6 +84,10 @@ pub(crate) struct Cli {
     /// The view direction, degrees clockwise from north [default: the viewpoint's].
     #[arg(long, value_parser = parse_finite, allow_hyphen_values = true)]
     pub(crate) azimuth: Option<f32>,
+    /// The view's angle above the horizon, degrees, −89 to 89 (negative: down) [default: the
+    /// viewpoint's, a few degrees up].
+    #[arg(long, value_parser = parse_pitch, allow_hyphen_values = true)]
+    pub(crate) pitch: Option<f32>,
     /// No cloud shadows on the terrain.
     #[arg(long)]
     pub(crate) no_cloud_shadows: bool,
@@ -100,7 +106,7 @@ pub(crate) struct Cli {
     pub(crate) growth: bool,
     /// Render the look board (`docs/look.md`): nine views of the bundled week, one weather
     /// each, into the folder `--out` (`frame_000.png`, …) and tiled into `board.png` there.
-    /// Headless only; `--camera`, `--time`, `--azimuth`, `--ev100` and `--frames` are the
+    /// Headless only; `--camera`, `--time`, `--azimuth`, `--pitch`, `--ev100` and `--frames` are the
     /// board's.
     #[arg(long, conflicts_with_all = ["frames", "photos"])]
     pub(crate) look: bool,
@@ -151,6 +157,7 @@ impl Cli {
             log_frame_times: self.log_frame_times,
             clouds: !self.no_clouds,
             azimuth_deg: self.azimuth,
+            pitch_deg: self.pitch,
             growth: self.growth,
             look: self.look,
         };
@@ -163,6 +170,13 @@ pub(crate) fn parse_finite(text: &str) -> Result<f32, String> {
         .ok()
         .filter(|x| x.is_finite())
         .ok_or_else(|| format!("{text:?} is not a number"))
+}
+
+pub(crate) fn parse_pitch(text: &str) -> Result<f32, String> {
+    text.parse::<f32>()
+        .ok()
+        .filter(|x| (-89.0..=89.0).contains(x))
+        .ok_or_else(|| format!("{text:?} is not an angle from -89 to 89 degrees"))
 }
 
 pub(crate) fn parse_fraction(text: &str) -> Result<f32, String> {

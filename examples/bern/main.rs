@@ -46,6 +46,7 @@
 //! | `--photo-wiper X` | fraction of the width, from the left, that shows the photo | 1 |
 //! | `--ev100 EV` | camera exposure | 14 (sunlit scenes; Bevy's atmosphere example uses 13) |
 //! | `--azimuth DEG` | look this way from the view's hill, degrees clockwise from north (toward a low sun for light shafts) | the view's own: Gurten 20°, Bantiger 225° |
+//! | `--pitch DEG` | look this far above the horizon, degrees, −89 to 89 (up toward a high sun for its halo) | the view's own, a few degrees up |
 //! | `--no-clouds` | no `VolumetricClouds` on the camera: the same frame without clouds (CI compares the two) | clouds on |
 //! | `--log-frame-times` | log the frame time and the cloud passes' GPU times every second | off |
 //! | `--growth` | the low clouds grow with the cloud-growth automaton: they form and dissolve as the low cover changes | off |
@@ -173,6 +174,7 @@ fn main() -> AppExit {
     .insert_resource(clock)
     .insert_resource(ViewState {
         azimuth_deg: options.azimuth_deg,
+        pitch_deg: options.pitch_deg,
         ..ViewState::on(options.viewpoint)
     })
     .insert_resource(PhotoOverlay {

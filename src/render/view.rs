@@ -17,7 +17,7 @@ use super::{
     haze::{GpuHazeUniforms, Haze, haze_settings},
 };
 use crate::{
-    layers::{CloudLayer, LayerDrift},
+    layers::{CloudKind, CloudLayer, LayerDrift},
     reference::composite::{sample_offset, upsampled_march_size, upsampling_factor},
     reference::{
         haze::HazeSettings,
@@ -239,6 +239,12 @@ fn march_layer(
         shape_strength: f64::from(layer.shape_noise),
         precipitation: f64::from(layer.precipitation),
         coverage_height: f64::from(layer.coverage_height),
+        // Ice-crystal veils make the 22° halo.
+        halo_share: if layer.kind == CloudKind::Cirrostratus {
+            f64::from(world.halo_share)
+        } else {
+            0.0
+        },
         ..default()
     };
     // Noise axes are world +X (east) and +Z (south) at the camera; drift is [east, north] and
@@ -286,6 +292,7 @@ fn rain_shaft(layer: &CloudLayer, cloud: &MarchLayer) -> Option<MarchLayer> {
         shape_strength: 0.0,
         detail_erosion: 0.0,
         precipitation: 1.0,
+        halo_share: 0.0,
         skew: [0.0; 2],
         // The rain falls from the whole cloud base, however high the cloud above it reaches.
         coverage_height: 0.0,
@@ -459,6 +466,7 @@ pub(crate) struct GpuCloudLayer {
     profile_count: u32,
     far_count: u32,
     coverage_height: f32,
+    halo_share: f32,
     warp_offset_m: Vec2,
     weather_offset_m: Vec4,
     noise_offset_m: Vec4,
@@ -506,6 +514,7 @@ impl From<&MarchLayer> for GpuCloudLayer {
             profile_count: layer.profile_points,
             far_count: layer.far_count.min(MAX_FAR_COVERAGES as u32),
             coverage_height: layer.coverage_height as f32,
+            halo_share: layer.halo_share as f32,
             warp_offset_m: Vec2::new(layer.warp_offset_m[0] as f32, layer.warp_offset_m[1] as f32),
             weather_offset_m: Vec4::new(
                 layer.weather_offset_m[0] as f32,

@@ -34,7 +34,15 @@ fn showcase_scenes_match_the_cpu_reference() {
         ],
         ..showcase_scenes().remove(0)
     };
-    for scene in showcase_scenes().into_iter().chain([under_a_deck]) {
+    // And a cirrostratus veil with the sun in the middle of the view: its 22° halo.
+    let halo = Scene {
+        name: "cirrostratus_halo",
+        camera: looking(Vec3::new(0.0, 2.0, 0.0), 40.0, 150.0),
+        sun_deg: (40.0, 150.0),
+        layers: vec![layer(CloudKind::Cirrostratus, 1.0)],
+        ..showcase_scenes().remove(0)
+    };
+    for scene in showcase_scenes().into_iter().chain([under_a_deck, halo]) {
         rig.set_scene(&scene);
         let (gpu_l, gpu_t) = rig.render(4);
         let (cpu_l, cpu_t) = rig.reference(&textures);
@@ -60,6 +68,20 @@ fn showcase_scenes_match_the_cpu_reference() {
             "{}: the scene must actually show cloud (mean T {mean_t})",
             scene.name
         );
+        if scene.name == "cirrostratus_halo" {
+            // Along the middle row, 22.5° from the sun (the ring) against 19° (inside it) on
+            // both sides: the camera's 60° vertical field of view at 16:9.
+            let half_width = (30f32.to_radians().tan() * size.x as f32 / size.y as f32).atan();
+            let at = |degrees: f32| {
+                let x = degrees.to_radians().tan() / half_width.tan();
+                let column = ((x + 1.0) * 0.5 * size.x as f32) as u32;
+                let row = size.y / 2;
+                luminance(&gpu_l[(row * size.x + column.min(size.x - 1)) as usize])
+            };
+            let (ring, inside) = (at(22.5) + at(-22.5), at(19.0) + at(-19.0));
+            eprintln!("halo: ring {ring:.4}, inside {inside:.4}");
+            assert!(ring > 1.2 * inside, "no halo: ring {ring}, inside {inside}");
+        }
     }
 }
 

@@ -52,6 +52,42 @@ pub fn dual_lobe_phase(cos_theta: f64, g_forward: f64, g_back: f64, blend: f64) 
         + blend * henyey_greenstein(cos_theta, g_back)
 }
 
+/// Scattering angle of the 22° halo's inner edge, degrees: the least deviation of light through
+/// a 60° ice prism, `2 asin(n sin 30°) − 60°` with ice's refractive index `n` = 1.31 (Greenler
+/// 1980, "Rainbows, Halos, and Glories", ch. 2). No light of the halo is scattered at smaller
+/// angles, so the sky inside the ring is darker than the ring.
+pub const HALO_ANGLE_DEG: f64 = 21.84;
+
+/// Width of the halo ring's inner edge, degrees: the sun's angular diameter, over which a sharp
+/// ring is smeared.
+pub const HALO_EDGE_DEG: f64 = 0.53;
+
+/// How far outward the halo's brightness falls by `e`, degrees: minimum-deviation rays pile up
+/// at the inner edge and the deviations of the others spread outward over a few degrees
+/// (Greenler 1980), so the ring fades outward.
+pub const HALO_FADE_DEG: f64 = 1.5;
+
+/// The 22° halo's ring as a phase function, 1/sr: 0 inside [`HALO_ANGLE_DEG`] −
+/// [`HALO_EDGE_DEG`], rising linearly to the inner edge at [`HALO_ANGLE_DEG`], then falling
+/// as `e^(−(θ − θ₀)/w)` with `w` = [`HALO_FADE_DEG`]; normalized in closed form so that it
+/// integrates to 1 over the sphere. `cos_theta` is the cosine of the scattering angle. WGSL
+/// twin: `halo_phase`.
+pub fn halo_phase(cos_theta: f64) -> f64 {
+    let theta = cos_theta.clamp(-1.0, 1.0).acos();
+    let theta0 = HALO_ANGLE_DEG.to_radians();
+    let edge = HALO_EDGE_DEG.to_radians();
+    let fade = HALO_FADE_DEG.to_radians();
+    let ring = if theta >= theta0 {
+        (-(theta - theta0) / fade).exp()
+    } else {
+        ((theta - (theta0 - edge)) / edge).max(0.0)
+    };
+    // ∫ ring sin θ dθ: the ramp's part in closed form, and the exponential tail's from θ₀ on.
+    let ramp = ((theta0).sin() - (theta0 - edge).sin()) / edge - theta0.cos();
+    let tail = fade * (theta0.sin() + fade * theta0.cos()) / (1.0 + fade * fade);
+    ring / (2.0 * std::f64::consts::PI * (ramp + tail))
+}
+
 /// Angle from the forward direction inside which the phase is the forward peak, degrees: the
 /// part of the phase above its value at this angle ([`EddingtonPhase::forward_cap`]) is single
 /// scattering seen through the true medium, the rest through the scaled one ([`sample_source`]).
@@ -136,6 +172,9 @@ pub struct SampleLights {
     /// sample ([`MarchLayer::sky_light_top`] and [`MarchLayer::sky_light_bottom`] of its layer;
     /// their scattering-weighted mean where layers overlap).
     pub sky_light: [[f64; 3]; 2],
+    /// The share of the sample's scattering in the 22° halo ([`MarchLayer::halo_share`] of its
+    /// layer; their scattering-weighted mean where layers overlap), clamped to 0–1.
+    pub halo_share: f64,
 }
 
 /// Source terms of one sample (σs the scattering, 1/m): the δ-Eddington
@@ -167,6 +206,10 @@ pub struct SampleLights {
 /// is kept. (The light of what lies behind the cloud, scattered in the peak, is added once per
 /// ray: [`march_clouds`](super::march_clouds).)
 ///
+/// Where the sample's layers make a halo ([`SampleLights::halo_share`] `h` above 0) the phase
+/// `p` is `(1 − h)` times the dual lobe plus `h` times the ring of [`halo_phase`], in the single
+/// scattering only: the ring's light joins the rest in the diffuse field.
+///
 /// With [`MarchSettings::multiple_scattering`] off: single scattering `σs E p e^(−τs)` and the
 /// ambient `σs (A_b + (A_t − A_b) h)` at the height fraction `h` of the layer (Pérez Martín 2022,
 /// "Day / Night Cycle"), given as `ambient`, all seen through the true medium. WGSL twin:
@@ -179,12 +222,20 @@ pub fn sample_source(
     ambient: [f64; 3],
     lights: &SampleLights,
 ) -> SampleSource {
-    let p = dual_lobe_phase(
+    let halo = if lights.halo_share > 0.0 {
+        lights.halo_share.min(1.0)
+    } else {
+        0.0
+    };
+    let mut p = dual_lobe_phase(
         lights.cos_sun,
         settings.phase_g_forward,
         settings.phase_g_back,
         settings.phase_blend,
     );
+    if halo > 0.0 {
+        p = (1.0 - halo) * p + halo * halo_phase(lights.cos_sun);
+    }
     let sun = settings.sun_illuminance;
     if !settings.multiple_scattering {
         let single = lights

@@ -152,6 +152,9 @@ struct Medium {
     /// The sky-light factors of the layers at the point, weighted by their scattering
     /// ([`SampleLights::sky_light`]); divided by `scattering` once summed.
     sky_light: [[f64; 3]; 2],
+    /// The layers' [`MarchLayer::halo_share`] at the point, weighted by their scattering
+    /// ([`SampleLights::halo_share`]); divided by `scattering` once summed.
+    halo_share: f64,
 }
 
 /// What a ray sees: in-scattered radiance and view transmittance, composited as
@@ -385,6 +388,7 @@ impl Ray<'_> {
                 }
                 medium.extinction += sigma;
                 medium.scattering += sigma_s;
+                medium.halo_share += sigma_s * layer.halo_share;
                 // The column of a cloud at full density above and below (a cloud's edge is
                 // thin, the cloud behind it is not).
                 let thickness = layer.top_m - layer.base_m;
@@ -398,6 +402,7 @@ impl Ray<'_> {
             for factor in medium.sky_light.iter_mut().flatten() {
                 *factor /= medium.scattering;
             }
+            medium.halo_share /= medium.scattering;
         }
         medium
     }
@@ -514,6 +519,7 @@ impl Ray<'_> {
             column,
             ambient,
             sky_light,
+            halo_share,
         } = *medium;
         let altitude = self.altitude(t);
         let footprint = t * settings.pixel_angle_rad;
@@ -606,6 +612,7 @@ impl Ray<'_> {
                 mu_view: self.mu,
                 sun_above_depth,
                 sky_light,
+                halo_share,
             },
         );
         // Hillaire 2016: ∫ T(x) S dx over the step = T · S · dt · (1 − e^(−σt dt)) / (σt dt),

@@ -169,6 +169,10 @@ pub struct MarchLayer {
     /// Precipitation darkening, 0–1: lowers the scattering albedo by up to
     /// [`PRECIPITATION_ABSORPTION`]. Default 0.
     pub precipitation: f64,
+    /// Share of the layer's scattered light in the 22° halo of its ice crystals, 0–1
+    /// ([`halo_phase`](super::halo_phase)): the phase is `(1 − share)` times the dual lobe plus
+    /// `share` times the halo's ring. Values outside 0–1 are clamped, NaN reads 0. Default 0.
+    pub halo_share: f64,
     /// How much the local coverage `κ` sets the clouds' height, 0–1 (dimensionless): the
     /// profile is read at the height fraction over [`coverage_height_scale`] of the patch fill
     /// ([`patch_fill`]), so where the weather thins out toward a cloud's edge its top comes
@@ -265,6 +269,7 @@ impl Default for MarchLayer {
             detail_erosion: 0.35,
             shape_strength: 1.0,
             precipitation: 0.0,
+            halo_share: 0.0,
             coverage_height: 0.0,
             weather_offset_m: [0.0; 2],
             shape_offset_m: [0.0; 2],

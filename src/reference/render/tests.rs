@@ -502,6 +502,83 @@ fn phase_and_jitter_stay_in_range() {
     assert!((step_warp(0.5, 3.0) - 1.0 / 3.0).abs() < 1e-15);
 }
 
+/// The halo's ring is a phase function: it integrates to 1 over the sphere (the midpoint rule
+/// on 0.001° steps), is 0 inside its inner edge's ramp and peaks at [`HALO_ANGLE_DEG`].
+#[test]
+fn the_halo_ring_integrates_to_one_and_peaks_at_22_degrees() {
+    let steps = 180_000;
+    let dtheta = std::f64::consts::PI / f64::from(steps);
+    let mut total = 0.0;
+    let mut peak = (0.0, 0.0);
+    for k in 0..steps {
+        let theta = (f64::from(k) + 0.5) * dtheta;
+        let p = halo_phase(theta.cos());
+        assert!(p.is_finite() && p >= 0.0, "{theta}: {p}");
+        total += 2.0 * std::f64::consts::PI * p * theta.sin() * dtheta;
+        if p > peak.1 {
+            peak = (theta.to_degrees(), p);
+        }
+    }
+    assert!((total - 1.0).abs() < 1e-4, "integral {total}");
+    assert!(
+        (peak.0 - HALO_ANGLE_DEG).abs() < 0.01,
+        "peak at {:.3}°",
+        peak.0
+    );
+    assert_eq!(
+        halo_phase((HALO_ANGLE_DEG - HALO_EDGE_DEG - 0.01).to_radians().cos()),
+        0.0
+    );
+    assert_eq!(halo_phase(1.0), 0.0);
+}
+
+/// A thin veil (optical depth 0.3) with the default halo share (`CloudWorld::halo_share`) shows a ring: from below, looking 22.5°
+/// from the sun is brighter than 20° (inside the ring) and 26° (outside it), where without the
+/// halo the forward lobe makes the radiance fall with the angle. Multiple scattering on, the sun
+/// 50° up.
+#[test]
+fn a_veil_with_a_halo_share_shows_a_ring_at_22_degrees() {
+    let sun_elevation: f64 = 50.0;
+    let settings = MarchSettings {
+        multiple_scattering: true,
+        ..slab_settings(64, sun_elevation)
+    };
+    // Radiance (green) looking `angle` degrees from the sun, toward the zenith.
+    let radiance = |layer: &MarchLayer, angle: f64| {
+        let e = (sun_elevation + angle).to_radians();
+        let direction = [0.0, e.sin(), -e.cos()];
+        let result = march_clouds(
+            textures(),
+            &settings,
+            std::slice::from_ref(layer),
+            settings.camera_altitude_m,
+            UP,
+            direction,
+            f64::INFINITY,
+            0.5,
+            None,
+        );
+        assert_sane(&result, "veil");
+        result.radiance[1]
+    };
+    let plain = slab(0.3 / 1000.0);
+    let veil = MarchLayer {
+        halo_share: f64::from(crate::world::CloudWorld::EARTH.halo_share),
+        ..plain.clone()
+    };
+    let [inside, ring, outside] = [20.0, 22.5, 26.0].map(|a| radiance(&veil, a));
+    let [plain_inside, plain_ring, plain_outside] = [20.0, 22.5, 26.0].map(|a| radiance(&plain, a));
+    eprintln!(
+        "with the halo {inside:.4} {ring:.4} {outside:.4}; without {plain_inside:.4} \
+         {plain_ring:.4} {plain_outside:.4}"
+    );
+    assert!(plain_inside > plain_ring && plain_ring > plain_outside);
+    assert!(ring > 1.2 * inside, "ring {ring}, inside {inside}");
+    assert!(ring > 1.2 * outside, "ring {ring}, outside {outside}");
+    // Inside the ring the veil loses the halo's share of its forward lobe.
+    assert!(inside < plain_inside);
+}
+
 /// A view ray far from the sun takes the share `light_steps_away_from_sun` of the light steps,
 /// one near it all of them ([`ray_light_steps`]), and the march follows: toward the sun the
 /// image is the same, away from it the ray's samples are lit with fewer steps.

@@ -128,6 +128,8 @@ struct QueuedSample {
     column_above: f32,
     column_below: f32,
     extinction: f32,
+    // Medium.halo_share.
+    halo_share: f32,
     // Coefficients of the source's direct and scaled parts in the radiance (the scaled part's
     // also in `scaled_radiance`).
     weight: f32,
@@ -255,6 +257,9 @@ struct Medium {
     // `Medium::sky_light`).
     sky_light_top: vec3<f32>,
     sky_light_bottom: vec3<f32>,
+    // The layers' halo shares at the point, weighted by their scattering (Rust:
+    // `Medium::halo_share`).
+    halo_share: f32,
 }
 
 // The medium at distance t, full detail. Rust: `Ray::medium`.
@@ -262,7 +267,7 @@ fn ray_medium(ray: ptr<function, MarchRay>, t: f32) -> Medium {
     let altitude = ray_altitude(ray, t);
     let horizontal = (*ray).horizontal_direction * t;
     let footprint = t * clouds.pixel_angle_rad;
-    var medium = Medium(0.0, 0.0, 0.0, 0.0, vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    var medium = Medium(0.0, 0.0, 0.0, 0.0, vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 0.0);
     let count = cloud_layer_count();
     for (var i = 0u; i < count; i++) {
         let sigma = layer_density(i, horizontal, altitude, footprint, true);
@@ -275,6 +280,7 @@ fn ray_medium(ray: ptr<function, MarchRay>, t: f32) -> Medium {
             medium.sky_light_bottom += sigma_s * cloud_layers[i].sky_light_bottom.xyz;
             medium.extinction += sigma;
             medium.scattering += sigma_s;
+            medium.halo_share += sigma_s * cloud_layers[i].halo_share;
             // The column of a cloud at full density above and below (Rust: `Ray::medium`).
             let full = cloud_layers[i].extinction * (cloud_layers[i].top_m - cloud_layers[i].base_m);
             let below = profile_column(i, height);
@@ -285,6 +291,7 @@ fn ray_medium(ray: ptr<function, MarchRay>, t: f32) -> Medium {
     if medium.scattering > 0.0 {
         medium.sky_light_top /= medium.scattering;
         medium.sky_light_bottom /= medium.scattering;
+        medium.halo_share /= medium.scattering;
     }
     return medium;
 }
@@ -434,7 +441,7 @@ fn integrate_step(ray: ptr<function, MarchRay>, t: f32, dt: f32, medium: Medium,
     // Deep in the cloud, and past the true medium's cut-off, fewer light steps.
     let light_steps = light_steps_at((*ray).light_steps, (*ray).transmittance, cutoff_transmittance(ray), (*ray).cutoff);
     let ambient = select(medium.ambient, medium.sky_light_top, clouds.multiple_scattering != 0u);
-    light_queue[queued] = QueuedSample(ambient, medium.sky_light_bottom, t, medium.scattering, medium.column_above, medium.column_below, extinction, share * weight, share * scaled_weight, light_steps);
+    light_queue[queued] = QueuedSample(ambient, medium.sky_light_bottom, t, medium.scattering, medium.column_above, medium.column_below, extinction, medium.halo_share, share * weight, share * scaled_weight, light_steps);
     (*ray).tail_a = queued;
     (*ray).tail_share_a = 1.0;
     (*ray).tail_b = NO_SAMPLE;
@@ -510,7 +517,7 @@ fn light_sample(ray: ptr<function, MarchRay>, sample: QueuedSample) -> SampleSou
             }
         }
     }
-    return sample_source(sample.scattering, sample.column_above, sample.column_below, sample.ambient, sample.ambient, sample.sky_light_bottom, optical_depth, above, mu_sun, (*ray).cos_sun, (*ray).mu);
+    return sample_source(sample.scattering, sample.column_above, sample.column_below, sample.ambient, sample.ambient, sample.sky_light_bottom, optical_depth, above, mu_sun, (*ray).cos_sun, (*ray).mu, sample.halo_share);
 }
 
 // How many of a ray's steps the interval [start_m, end_m] calls for: its length over the step's

@@ -49,6 +49,27 @@ fn dual_lobe_phase(cos_theta: f32, g_forward: f32, g_back: f32, blend_in: f32) -
     return (1.0 - blend) * henyey_greenstein(cos_theta, g_forward) + blend * henyey_greenstein(cos_theta, g_back);
 }
 
+// Rust: the constants of the same names in reference/render/light.rs.
+const HALO_ANGLE_DEG: f32 = 21.84;
+const HALO_EDGE_DEG: f32 = 0.53;
+const HALO_FADE_DEG: f32 = 1.5;
+
+// The 22-degree halo's ring as a phase function, 1/sr, normalized over the sphere. Rust:
+// `halo_phase`.
+fn halo_phase(cos_theta: f32) -> f32 {
+    let theta = acos(clamp(cos_theta, -1.0, 1.0));
+    let theta0 = radians(HALO_ANGLE_DEG);
+    let edge = radians(HALO_EDGE_DEG);
+    let fade = radians(HALO_FADE_DEG);
+    var ring = max((theta - (theta0 - edge)) / edge, 0.0);
+    if theta >= theta0 {
+        ring = exp(-(theta - theta0) / fade);
+    }
+    let ramp = (sin(theta0) - sin(theta0 - edge)) / edge - cos(theta0);
+    let tail = fade * (sin(theta0) + fade * cos(theta0)) / (1.0 + fade * fade);
+    return ring / (2.0 * PI * (ramp + tail));
+}
+
 // The light a sample sends toward the camera per metre of the view ray: `direct` is seen through
 // the true medium, `scaled` through the delta-scaled one. Rust: `SampleSource`.
 struct SampleSource {
@@ -58,8 +79,9 @@ struct SampleSource {
 
 // The delta-Eddington source-function light with the single scattering split at the forward
 // peak; `sun_depth` negative when the sun does not reach the sample, `sun_above_depth` its part
-// in the layers above the sample's own; `sky_light_*` the sample's factors on the sky light
-// (Rust: `SampleLights::sun_above_depth`, `sky_light`). Rust: `sample_source` (its docs
+// in the layers above the sample's own; `sky_light_*` the sample's factors on the sky light;
+// `halo_share` the share of its scattering in the 22-degree halo (Rust:
+// `SampleLights::sun_above_depth`, `sky_light`, `halo_share`). Rust: `sample_source` (its docs
 // give the equations).
 fn sample_source(
     scattering: f32,
@@ -73,8 +95,13 @@ fn sample_source(
     mu_sun: f32,
     cos_sun: f32,
     mu_view: f32,
+    halo_share: f32,
 ) -> SampleSource {
-    let p = dual_lobe_phase(cos_sun, clouds.phase_g_forward, clouds.phase_g_back, clouds.phase_blend);
+    var p = dual_lobe_phase(cos_sun, clouds.phase_g_forward, clouds.phase_g_back, clouds.phase_blend);
+    if halo_share > 0.0 {
+        let halo = min(halo_share, 1.0);
+        p = (1.0 - halo) * p + halo * halo_phase(cos_sun);
+    }
     let sun = clouds.sun_illuminance.xyz;
     var source = SampleSource(vec3<f32>(0.0), vec3<f32>(0.0));
     if clouds.multiple_scattering == 0u {

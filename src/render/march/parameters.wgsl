@@ -104,6 +104,8 @@ struct CloudLayerGpu {
     far_count: u32,
     // Rust: `MarchLayer::coverage_height`.
     coverage_height: f32,
+    // Rust: `MarchLayer::halo_share`.
+    halo_share: f32,
     // Rust: `MarchLayer::warp_offset_m`.
     warp_offset_m: vec2<f32>,
     weather_offset_m: vec4<f32>,
