@@ -247,7 +247,9 @@ pub struct VolumetricClouds {
     /// four shadow-map texels toward the sun, in at most four steps, and read the rest of the
     /// way from the cloud shadow map ([`shadow::CloudShadows`]): that is four density samples
     /// instead of [`VolumetricClouds::light_steps`]. Only where the map covers the sample and
-    /// may light it: not on view rays within about 32° of the sun, where the phase function's
+    /// may light it: not on view rays within about 32° of the sun (from there to 37° its
+    /// sun's optical depth mixes the light march's and the map's in proportion to the angle, so
+    /// the change draws no ring around the sun), where the phase function's
     /// forward peak turns the map's blur of thin, backlit edges (its texels are 156 m across
     /// the sun at the default 40 km and 256²) into the brightest error, and not under a sun
     /// below 10°, whose long, nearly level sun lines cross several clouds between the map's

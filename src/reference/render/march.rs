@@ -97,13 +97,24 @@ pub fn toward_sun(cos_sun: f64) -> f64 {
 /// map kept `MEDIUM` within its 5 % of the converged march in the bench's sunset view.
 pub const SHADOW_MAP_MIN_SUN_MU: f64 = 0.173_648_177_666_930_33;
 
-/// Whether a sample may read its sun's optical depth from the cloud shadow map
-/// ([`MarchSettings::sun_from_shadow_map_m`]): not on a view ray within about 32° of the sun
-/// ([`TOWARD_SUN_COS`]), whose forward-scattering peak turns the map's blur of a thin, backlit
-/// edge into its brightest error, and not under a sun lower than [`SHADOW_MAP_MIN_SUN_MU`].
-/// WGSL twin: `shadow_map_lights`.
-pub fn shadow_map_lights(cos_sun: f64, mu_sun: f64) -> bool {
-    cos_sun < TOWARD_SUN_COS && mu_sun >= SHADOW_MAP_MIN_SUN_MU
+/// Where the cloud shadow map has taken over from the light march on every view ray, as the
+/// cosine of the angle to the sun (about 36.9°). Between [`TOWARD_SUN_COS`] (31.8°) and here a
+/// sample's optical depth toward the sun is the light march's and the map's mixed in
+/// proportion to the angle ([`shadow_map_share`]): a switch at one angle drew a ring around the
+/// sun on the clouds, where the two differ.
+pub const SHADOW_MAP_BLEND_COS: f64 = 0.8;
+
+/// How much of a sample's optical depth toward the sun comes from the cloud shadow map
+/// ([`MarchSettings::sun_from_shadow_map_m`]), 0–1, where the map covers the sample: none on a
+/// view ray within about 32° of the sun ([`TOWARD_SUN_COS`]), whose forward-scattering peak
+/// turns the map's blur of a thin, backlit edge into its brightest error, nor under a sun
+/// lower than [`SHADOW_MAP_MIN_SUN_MU`]; all of it from [`SHADOW_MAP_BLEND_COS`] out, and a
+/// share growing linearly with the cosine between. WGSL twin: `shadow_map_share`.
+pub fn shadow_map_share(cos_sun: f64, mu_sun: f64) -> f64 {
+    if !(mu_sun >= SHADOW_MAP_MIN_SUN_MU) {
+        return 0.0;
+    }
+    saturate((TOWARD_SUN_COS - cos_sun) / (TOWARD_SUN_COS - SHADOW_MAP_BLEND_COS))
 }
 
 /// A primary step thinner than this (optical thickness at its sample) counts as clear for the
@@ -558,43 +569,57 @@ impl Ray<'_> {
             };
             // A far sample marches only the first texels toward the sun and reads the rest of
             // the way from the shadow map, where the map covers it and may light it.
-            let from_map = self
-                .shadow
-                .filter(|_| {
-                    t >= settings.sun_from_shadow_map_m && shadow_map_lights(self.cos_sun, mu_sun)
+            let share = if t >= settings.sun_from_shadow_map_m {
+                shadow_map_share(self.cos_sun, mu_sun)
+            } else {
+                0.0
+            };
+            let from_map = self.shadow.filter(|_| share > 0.0).and_then(|map| {
+                let near = SHADOW_MAP_NEAR_TEXELS * map.frame.texel_m();
+                let end = add(position, scale(settings.sun_direction, near));
+                let end_altitude =
+                    altitude_along_ray(altitude, mu_sun, near, settings.planet_radius_m);
+                let far = map.sun_optical_depth(end, end_altitude)?;
+                let near_depth = light_march(near, light_steps.min(SHADOW_MAP_NEAR_STEPS));
+                Some(if near_depth < 0.0 {
+                    near_depth
+                } else {
+                    near_depth + far
                 })
-                .and_then(|map| {
-                    let near = SHADOW_MAP_NEAR_TEXELS * map.frame.texel_m();
-                    let end = add(position, scale(settings.sun_direction, near));
-                    let end_altitude =
-                        altitude_along_ray(altitude, mu_sun, near, settings.planet_radius_m);
-                    let far = map.sun_optical_depth(end, end_altitude)?;
-                    let near_depth = light_march(near, light_steps.min(SHADOW_MAP_NEAR_STEPS));
-                    Some(if near_depth < 0.0 {
-                        near_depth
-                    } else {
-                        near_depth + far
-                    })
-                });
-            // A full light march then crosses the layers above the sample's own (the map holds
-            // them already).
-            let optical_depth = from_map.unwrap_or_else(|| {
-                let own = light_march(f64::INFINITY, light_steps);
-                if own >= 0.0 {
-                    sun_above_depth = higher_layers_optical_depth(
-                        self.textures,
-                        settings,
-                        self.layers,
-                        self.up,
-                        position,
-                        altitude,
-                        mu_sun,
-                        footprint,
-                        light_steps,
-                    );
-                }
-                own + sun_above_depth
             });
+            // A full light march then crosses the layers above the sample's own (the map holds
+            // them already): the optical depth and that part of it.
+            let marched = || {
+                let own = light_march(f64::INFINITY, light_steps);
+                if own < 0.0 {
+                    return (own, 0.0);
+                }
+                let above = higher_layers_optical_depth(
+                    self.textures,
+                    settings,
+                    self.layers,
+                    self.up,
+                    position,
+                    altitude,
+                    mu_sun,
+                    footprint,
+                    light_steps,
+                );
+                (own + above, above)
+            };
+            let (optical_depth, above) = match from_map {
+                Some(depth) if share >= 1.0 => (depth, 0.0),
+                // Between the two, each in proportion (the ground blocks both or neither).
+                Some(depth) => match marched() {
+                    (marched_depth, marched_above) if depth >= 0.0 && marched_depth >= 0.0 => (
+                        lerp(marched_depth, depth, share),
+                        (1.0 - share) * marched_above,
+                    ),
+                    _ => (-1.0, 0.0),
+                },
+                None => marched(),
+            };
+            sun_above_depth = above;
             if optical_depth >= 0.0 {
                 sun_optical_depth_at = Some(optical_depth);
             }

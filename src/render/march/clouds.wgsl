@@ -77,6 +77,8 @@ const EDGE_SEARCH_STEPS: u32 = 6u;
 const AWAY_FROM_SUN_CUTOFF_GAIN: f32 = 5.0;
 // Rust: `SHADOW_MAP_MIN_SUN_MU` (sin 10 degrees).
 const SHADOW_MAP_MIN_SUN_MU: f32 = 0.17364817766693033;
+// Rust: `SHADOW_MAP_BLEND_COS`.
+const SHADOW_MAP_BLEND_COS: f32 = 0.8;
 
 // The view transmittance a ray stops at: the cut-off within about 32 degrees of the sun,
 // AWAY_FROM_SUN_CUTOFF_GAIN times it from 60 degrees on, linear between, at most 1; the cut-off
@@ -95,10 +97,15 @@ fn toward_sun(cos_sun: f32) -> f32 {
     return saturate((cos_sun - AWAY_FROM_SUN_COS) / (TOWARD_SUN_COS - AWAY_FROM_SUN_COS));
 }
 
-// Whether a sample may read its sun from the cloud shadow map: not on a view ray within about
-// 32 degrees of the sun, nor under a sun below 10 degrees. Rust: `shadow_map_lights`.
-fn shadow_map_lights(cos_sun: f32, mu_sun: f32) -> bool {
-    return cos_sun < TOWARD_SUN_COS && mu_sun >= SHADOW_MAP_MIN_SUN_MU;
+// How much of a sample's optical depth toward the sun comes from the cloud shadow map: none on a
+// view ray within about 32 degrees of the sun nor under a sun below 10 degrees, all of it from
+// SHADOW_MAP_BLEND_COS out, a share growing linearly with the cosine between. Rust:
+// `shadow_map_share`.
+fn shadow_map_share(cos_sun: f32, mu_sun: f32) -> f32 {
+    if !(mu_sun >= SHADOW_MAP_MIN_SUN_MU) {
+        return 0.0;
+    }
+    return saturate((TOWARD_SUN_COS - cos_sun) / (TOWARD_SUN_COS - SHADOW_MAP_BLEND_COS));
 }
 
 // GPU only: the light march is deferred. A sample's source needs its light march toward the
@@ -497,24 +504,42 @@ fn light_sample(ray: ptr<function, MarchRay>, sample: QueuedSample) -> SampleSou
     var above = 0.0;
     if (*ray).sun_on {
         // A far sample marches only the first texels toward the sun and reads the rest of the
-        // way from the shadow map, where the map covers it and may light it (Rust:
+        // way from the shadow map, where the map covers it and may light it; within five
+        // degrees of where the map may light it, mixed with the full light march (Rust:
         // `Ray::integrate`).
         let near = SHADOW_MAP_NEAR_TEXELS * clouds.shadow_map_range_m.z;
         let end = position + clouds.sun_direction.xyz * near;
         let uv = shadow_map_uv(end);
-        if t >= clouds.sun_from_shadow_map_m && shadow_map_lights((*ray).cos_sun, mu_sun) && shadow_map_covers(uv) {
+        var share = 0.0;
+        if t >= clouds.sun_from_shadow_map_m && shadow_map_covers(uv) {
+            share = shadow_map_share((*ray).cos_sun, mu_sun);
+        }
+        var from_map = -1.0;
+        if share > 0.0 {
             let end_altitude = altitude_along_ray(altitude, mu_sun, near, clouds.planet_radius_m);
-            optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, near, min(light_steps, SHADOW_MAP_NEAR_STEPS), LIGHT_SAMPLE_OFFSET, (*ray).jitter);
-            if optical_depth >= 0.0 {
-                optical_depth += map_sun_optical_depth(uv, end_altitude);
+            from_map = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, near, min(light_steps, SHADOW_MAP_NEAR_STEPS), LIGHT_SAMPLE_OFFSET, (*ray).jitter);
+            if from_map >= 0.0 {
+                from_map += map_sun_optical_depth(uv, end_altitude);
             }
-        } else {
+        }
+        if share < 1.0 {
             optical_depth = sun_optical_depth((*ray).camera_altitude_m, (*ray).up, position, altitude, footprint, FAR_AWAY, light_steps, LIGHT_SAMPLE_OFFSET, (*ray).jitter);
             // Then the layers above the sample's own (the map holds them already).
             if optical_depth >= 0.0 {
                 above = higher_layers_optical_depth((*ray).up, position, altitude, mu_sun, footprint, light_steps);
                 optical_depth += above;
             }
+            if share > 0.0 {
+                if optical_depth >= 0.0 && from_map >= 0.0 {
+                    optical_depth = mix(optical_depth, from_map, share);
+                    above = (1.0 - share) * above;
+                } else {
+                    optical_depth = -1.0;
+                    above = 0.0;
+                }
+            }
+        } else {
+            optical_depth = from_map;
         }
     }
     return sample_source(sample.scattering, sample.column_above, sample.column_below, sample.ambient, sample.ambient, sample.sky_light_bottom, optical_depth, above, mu_sun, (*ray).cos_sun, (*ray).mu, sample.halo_share);

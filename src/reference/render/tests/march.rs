@@ -667,3 +667,22 @@ fn rays_away_from_the_sun_into_the_sky_stop_sooner() {
     assert_eq!(ray_transmittance_cutoff(0.0, 0.0, f64::INFINITY), 0.0);
     assert_eq!(ray_transmittance_cutoff(0.5, 0.0, f64::INFINITY), 1.0);
 }
+
+/// The cloud shadow map takes over from the light march between about 32° and 37° from the sun,
+/// its share of the optical depth growing linearly with the cosine ([`shadow_map_share`]): a
+/// switch at one angle drew a ring around the sun on the clouds. Under a sun below 10° the light
+/// march stays everywhere.
+#[test]
+fn the_shadow_map_takes_over_gradually_around_the_sun() {
+    assert_eq!(shadow_map_share(TOWARD_SUN_COS + 0.001, 0.5), 0.0);
+    assert_eq!(shadow_map_share(1.0, 0.5), 0.0);
+    assert_eq!(shadow_map_share(SHADOW_MAP_BLEND_COS - 0.001, 0.5), 1.0);
+    assert_eq!(shadow_map_share(-1.0, 0.5), 1.0);
+    for fraction in [0.1, 0.25, 0.5, 0.75, 0.9] {
+        let cos_sun = TOWARD_SUN_COS - fraction * (TOWARD_SUN_COS - SHADOW_MAP_BLEND_COS);
+        let share = shadow_map_share(cos_sun, 0.5);
+        assert!((share - fraction).abs() < 1e-12, "{fraction}: {share}");
+    }
+    assert_eq!(shadow_map_share(0.0, SHADOW_MAP_MIN_SUN_MU - 0.01), 0.0);
+    assert_eq!(shadow_map_share(0.0, f64::NAN), 0.0);
+}
