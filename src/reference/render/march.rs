@@ -111,7 +111,8 @@ pub const SHADOW_MAP_BLEND_COS: f64 = 0.8;
 /// lower than [`SHADOW_MAP_MIN_SUN_MU`]; all of it from [`SHADOW_MAP_BLEND_COS`] out, and a
 /// share growing linearly with the cosine between. WGSL twin: `shadow_map_share`.
 pub fn shadow_map_share(cos_sun: f64, mu_sun: f64) -> f64 {
-    if !(mu_sun >= SHADOW_MAP_MIN_SUN_MU) {
+    // NaN counts as a low sun.
+    if mu_sun.is_nan() || mu_sun < SHADOW_MAP_MIN_SUN_MU {
         return 0.0;
     }
     saturate((TOWARD_SUN_COS - cos_sun) / (TOWARD_SUN_COS - SHADOW_MAP_BLEND_COS))
