@@ -26,10 +26,12 @@
 //!   with those ([`HazeSun::Shafts`]); [`HazeSun::PerSample`] is what they approximate. With
 //!   shafts off, with no shadow map, and beyond the map's extent, one number for the whole
 //!   view, [`mean_sun_transmittance`]: the clouds' average shade;
-//! - the sky and the ground, isotropically: the mean of the clouds' top and bottom ambient
-//!   radiance (sky above, ground-reflected light below), times the fraction of diffuse light the
-//!   clouds let through ([`mean_diffuse_transmittance`]): under an overcast deck the haze sees
-//!   the deck, not the blue sky above it.
+//! - the sky and the ground, isotropically: the mean of the radiance of the sky above
+//!   ([`HazeSettings::sky_radiance`]: the open sky's share of the clear sky, and the clouds'
+//!   bases, lit by the sun and the sky through them) and the ground-reflected light below, times
+//!   the fraction of diffuse light the clouds let through ([`mean_diffuse_transmittance`]).
+//!   Under an overcast deck the haze sees the deck, not the blue sky above it; under broken
+//!   cumulus it sees their sunlit bases as well as the blue between them.
 //!
 //! # Integration
 //!
@@ -47,7 +49,7 @@
 
 use super::render::{
     MarchResult, MarchSettings, altitude_along_ray, dot, ground_distance, henyey_greenstein,
-    intersect_altitude_sphere, mean_step_transmittance, scale,
+    intersect_altitude_sphere, mean_step_transmittance, scale, sky_light_under_clouds,
 };
 use super::shadow::ShadowMapImage;
 
@@ -105,8 +107,16 @@ pub struct HazeSettings {
     /// ([`mean_sun_transmittance`]). Default 1.
     pub sun_transmittance: f64,
     /// The fraction of the sky's diffuse light that gets through the clouds to the haze, 0–1
-    /// ([`mean_diffuse_transmittance`]). Default 1.
+    /// ([`mean_diffuse_transmittance`]): it dims the ground's light on the haze, and without
+    /// [`HazeSettings::sky_radiance`] the sky's. Default 1.
     pub ambient_transmittance: f64,
+    /// The mean radiance of the sky above the haze, clouds included, RGB, in the units of
+    /// [`MarchSettings::ambient_top`]: the open sky's share of the clear sky's light plus the
+    /// light the clouds' bases send down, the sun's and the sky's that crossed them (the
+    /// renderer sets it from the diffuse flux under the clouds, validated against DISORT). `None`
+    /// takes the clear sky's `ambient_top` times [`HazeSettings::ambient_transmittance`], which
+    /// leaves the clouds' own light out. Default `None`.
+    pub sky_radiance: Option<[f64; 3]>,
 }
 
 impl Default for HazeSettings {
@@ -121,11 +131,19 @@ impl Default for HazeSettings {
             shaft_steps: 64,
             sun_transmittance: 1.0,
             ambient_transmittance: 1.0,
+            sky_radiance: None,
         }
     }
 }
 
 impl HazeSettings {
+    /// The mean radiance of the sky above the haze ([`HazeSettings::sky_radiance`]) under a
+    /// clear sky of radiance `ambient_top`.
+    pub fn sky_radiance_or(&self, ambient_top: [f64; 3]) -> [f64; 3] {
+        self.sky_radiance
+            .unwrap_or_else(|| ambient_top.map(|a| a * self.ambient_transmittance))
+    }
+
     /// Whether there is haze to march: a positive, finite extinction and scale height.
     pub fn is_active(&self) -> bool {
         self.extinction_per_m.is_finite()
@@ -193,6 +211,20 @@ pub fn mean_diffuse_transmittance(layers: &[super::render::MarchLayer]) -> f64 {
 /// light on its top, beam and diffuse alike, that leaves through its base.
 pub fn cloud_diffuse_transmittance(tau: f64) -> f64 {
     1.0 / (1.0 + 0.75 * (1.0 - CLOUD_ASYMMETRY) * tau)
+}
+
+/// The mean radiance of the sky above air under `layers`, RGB ([`HazeSettings::sky_radiance`]):
+/// the open share of the clear sky's [`MarchSettings::ambient_top`] plus the light the clouds'
+/// bases send down, the sun's and the sky's that crossed them, with the ground's light (albedo
+/// `ground_albedo`) reflected back down ([`sky_light_under_clouds`]: the diffuse flux under a
+/// deck, within 10 % of DISORT's). The clear sky's `ambient_top` without clouds.
+pub fn sky_above_clouds(
+    settings: &MarchSettings,
+    layers: &[super::render::MarchLayer],
+    ground_albedo: f64,
+) -> [f64; 3] {
+    let light = sky_light_under_clouds(settings, layers, ground_albedo);
+    std::array::from_fn(|c| (1.0 - light.cover) * settings.ambient_top[c] + light.cloud_radiance[c])
 }
 
 /// The haze along one view ray: the part in front of the clouds and the part behind them.
@@ -427,8 +459,10 @@ pub fn march_haze(
     );
     let cos_sun = dot(direction, settings.sun_direction).clamp(-1.0, 1.0);
     let phase = henyey_greenstein(cos_sun, haze.asymmetry);
+    // The sky above and the ground below, isotropically.
+    let sky = haze.sky_radiance_or(settings.ambient_top);
     let ambient: [f64; 3] = std::array::from_fn(|c| {
-        0.5 * (settings.ambient_top[c] + settings.ambient_bottom[c]) * haze.ambient_transmittance
+        0.5 * (sky[c] + settings.ambient_bottom[c] * haze.ambient_transmittance)
     });
     let sun = if haze.shafts { sun } else { HazeSun::Mean };
     // [front, back]: radiance and optical depth.

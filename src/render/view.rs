@@ -638,7 +638,7 @@ pub(crate) fn extract_cloud_views(
             layers.iter(),
             frame.0,
         );
-        let haze = haze_settings(haze, settings, &march, &march_layers);
+        let haze = haze_settings(haze, settings, &march, &march_layers, GROUND_ALBEDO);
         // No cloud, no haze and no stars: the pass does not run.
         if !camera.is_active || (march_layers.is_empty() && !haze.is_active() && !stars) {
             entity_commands.remove::<ExtractedCloudView>();

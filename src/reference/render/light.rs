@@ -15,8 +15,8 @@
 
 use super::{
     CloudTextures, MarchLayer, MarchSettings, add, altitude_along_ray, dot, ground_distance,
-    horizontal_axes, intersect_altitude_sphere, layer_density, layer_is_active, saturate, scale,
-    total_extinction,
+    horizontal_axes, intersect_altitude_sphere, layer_density, layer_is_active, profile_density,
+    saturate, scale, total_extinction,
 };
 
 /// Most light-march steps; larger [`MarchSettings::light_steps`] are clamped.
@@ -688,5 +688,101 @@ pub fn sky_light_under_layers(settings: &MarchSettings, layers: &mut [MarchLayer
         layer.sky_light_bottom = std::array::from_fn(|c| {
             ratio(direct[c] + std::f64::consts::PI * radiance[c], open_flux[c])
         });
+    }
+}
+
+/// The sky light under the layers above a camera ([`crate::render::sky_light`]'s module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SkyLightUnderClouds {
+    /// Fraction of the sky the layers above the camera cover, 0–1.
+    pub cover: f64,
+    /// The diffuse irradiance on a horizontal surface over the clear sky's, luminance (1 under a
+    /// clear sky).
+    pub factor: f64,
+    /// The covered part's light as the radiance of a uniform sky that puts the same irradiance
+    /// on a horizontal surface, `c E_d / π` with the ground's bounce, per linear RGB channel, in
+    /// the units of [`MarchSettings::sun_illuminance`] per steradian (cd/m² for lux); 0 under a
+    /// clear sky.
+    pub cloud_radiance: [f64; 3],
+}
+
+impl SkyLightUnderClouds {
+    /// A clear sky: nothing covered, factor 1.
+    pub const CLEAR: Self = Self {
+        cover: 0.0,
+        factor: 1.0,
+        cloud_radiance: [0.0; 3],
+    };
+}
+
+/// The sky light of [`crate::render::sky_light`]'s module docs for a march's settings and layers (the camera at
+/// [`MarchSettings::camera_altitude_m`]) over a ground of albedo `ground_albedo` (0–1): the light
+/// the ground sends back up is reflected down again by the deck, `1 / (1 − A R)` more, `R` the
+/// deck's reflectance for diffuse light from below, `1 − (4/3) / (4/3 + (1 − g) τ)`.
+/// [`SkyLightUnderClouds::CLEAR`] when the clear sky sends no light.
+pub fn sky_light_under_clouds(
+    settings: &MarchSettings,
+    layers: &[MarchLayer],
+    ground_albedo: f64,
+) -> SkyLightUnderClouds {
+    const SAMPLES: u32 = 16;
+    let luminance = |rgb: [f64; 3]| 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+    let altitude = settings.camera_altitude_m;
+    let mut clear_fraction = 1.0;
+    let mut weighted_depth = 0.0;
+    let mut weights = 0.0;
+    for layer in layers.iter().filter(|layer| layer_is_active(layer)) {
+        let bottom = layer.base_m.max(altitude);
+        if layer.top_m.partial_cmp(&bottom) != Some(std::cmp::Ordering::Greater) {
+            continue;
+        }
+        let mean_profile = (0..SAMPLES)
+            .map(|i| {
+                let height =
+                    bottom + (layer.top_m - bottom) * (f64::from(i) + 0.5) / f64::from(SAMPLES);
+                profile_density(
+                    layer,
+                    (height - layer.base_m) / (layer.top_m - layer.base_m),
+                )
+            })
+            .sum::<f64>()
+            / f64::from(SAMPLES);
+        let cover = layer.coverage.clamp(0.0, 1.0);
+        clear_fraction *= 1.0 - cover;
+        weighted_depth += cover * layer.extinction * mean_profile * (layer.top_m - bottom);
+        weights += cover;
+    }
+    let cover = 1.0 - clear_fraction;
+    let clear = std::f64::consts::PI * luminance(settings.ambient_top);
+    if clear.is_nan() || clear <= 0.0 || cover.is_nan() || cover <= 0.0 {
+        return SkyLightUnderClouds::CLEAR;
+    }
+    let phase = eddington_phase(settings);
+    let depth = weighted_depth / weights;
+    let mu_sun = settings
+        .sun_direction
+        .iter()
+        .zip(settings.camera_up)
+        .map(|(s, u)| s * u)
+        .sum();
+    let one_minus_g = (1.0 - phase.scaled_asymmetry) * (1.0 - phase.forward_fraction);
+    let reflectance = 1.0 - (4.0 / 3.0) / (4.0 / 3.0 + one_minus_g * depth);
+    let bounce = 1.0 / (1.0 - ground_albedo.clamp(0.0, 1.0) * reflectance).max(1e-3);
+    let under: [f64; 3] = std::array::from_fn(|c| {
+        deck_irradiance(
+            &phase,
+            depth,
+            mu_sun,
+            settings.sun_illuminance[c],
+            settings.ambient_top[c],
+            0.0,
+        )
+        .diffuse
+            * bounce
+    });
+    SkyLightUnderClouds {
+        cover,
+        factor: ((1.0 - cover) * clear + cover * luminance(under)) / clear,
+        cloud_radiance: under.map(|e| cover * e / std::f64::consts::PI),
     }
 }

@@ -28,10 +28,14 @@ struct HazeUniforms {
     // `sun_transmittance` everywhere.
     shafts: u32,
     sun_transmittance: f32,
-    // The fraction of the sky's diffuse light the clouds let through to the haze.
+    // The fraction of the sky's diffuse light the clouds let through to the haze (the ground's
+    // light on it is dimmed by it).
     ambient_transmittance: f32,
     // Steps of the shaft pass along the view ray.
     shaft_steps: u32,
+    // rgb: the mean radiance of the sky above the haze, clouds included (Rust:
+    // `HazeSettings::sky_radiance_or`).
+    sky_radiance: vec4<f32>,
 }
 
 // The cloud shadow map and its frame are the march's (binding 9 of `textures.wgsl`,
@@ -155,7 +159,8 @@ fn march_haze(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, split_m: 
     }
     let cos_sun = clamp(dot(direction, clouds.sun_direction.xyz), -1.0, 1.0);
     let sun = clouds.sun_illuminance.xyz * henyey_greenstein(cos_sun, haze.asymmetry);
-    let ambient = 0.5 * (clouds.ambient_top.xyz + clouds.ambient_bottom.xyz) * haze.ambient_transmittance;
+    // The sky above and the ground below, isotropically.
+    let ambient = 0.5 * (haze.sky_radiance.xyz + clouds.ambient_bottom.xyz * haze.ambient_transmittance);
     let steps = clamp(haze.steps, 1u, MAX_HAZE_STEPS);
     let n = f32(steps);
     var radiance_front = vec3<f32>(0.0);

@@ -51,7 +51,7 @@ pub use crate::layers::Haze;
 use crate::reference::{
     haze::{
         HazeSettings, MAX_HAZE_STEPS, SHAFT_STEPS_PER_HAZE_STEP, haze_extinction_for_visibility,
-        mean_diffuse_transmittance, mean_sun_transmittance,
+        mean_diffuse_transmittance, mean_sun_transmittance, sky_above_clouds,
     },
     render::{MarchLayer, MarchSettings},
     shadow::ShadowMapFrame,
@@ -70,6 +70,7 @@ pub(crate) fn haze_settings(
     clouds: &VolumetricClouds,
     march: &MarchSettings,
     layers: &[MarchLayer],
+    ground_albedo: f64,
 ) -> HazeSettings {
     let finite_or = |v: f32, default: f64| {
         if v.is_finite() { f64::from(v) } else { default }
@@ -96,6 +97,7 @@ pub(crate) fn haze_settings(
             DVec3::from_array(march.sun_direction).dot(DVec3::from_array(march.camera_up)),
         ),
         ambient_transmittance: mean_diffuse_transmittance(layers),
+        sky_radiance: Some(sky_above_clouds(march, layers, ground_albedo)),
     }
 }
 
@@ -124,7 +126,7 @@ impl CloudShadowFrame {
     }
 }
 
-/// The haze uniform, laid out as `HazeUniforms` in `haze.wgsl` (36 bytes).
+/// The haze uniform, laid out as `HazeUniforms` in `haze.wgsl` (64 bytes).
 #[derive(ShaderType, Clone, Debug, Default)]
 pub(crate) struct GpuHazeUniforms {
     extinction_per_m: f32,
@@ -136,13 +138,16 @@ pub(crate) struct GpuHazeUniforms {
     sun_transmittance: f32,
     ambient_transmittance: f32,
     shaft_steps: u32,
+    sky_radiance: Vec4,
 }
 
 impl GpuHazeUniforms {
-    /// The uniform for `settings`; `shafts_ran` says whether the shaft pass ran for this view
-    /// (the march reads its factors when the settings ask for shafts).
-    pub fn new(settings: &HazeSettings, shafts_ran: bool) -> Self {
+    /// The uniform for `settings` under a clear sky of radiance `ambient_top`
+    /// ([`HazeSettings::sky_radiance_or`]); `shafts_ran` says whether the shaft pass ran for
+    /// this view (the march reads its factors when the settings ask for shafts).
+    pub fn new(settings: &HazeSettings, ambient_top: [f64; 3], shafts_ran: bool) -> Self {
         let active = settings.is_active();
+        let sky = settings.sky_radiance_or(ambient_top);
         Self {
             extinction_per_m: if active {
                 settings.extinction_per_m as f32
@@ -157,6 +162,7 @@ impl GpuHazeUniforms {
             sun_transmittance: settings.sun_transmittance as f32,
             ambient_transmittance: settings.ambient_transmittance as f32,
             shaft_steps: settings.shaft_steps,
+            sky_radiance: Vec4::new(sky[0] as f32, sky[1] as f32, sky[2] as f32, 0.0),
         }
     }
 }
@@ -167,7 +173,7 @@ mod tests {
 
     #[test]
     fn uniform_layout_matches_the_shader() {
-        assert_eq!(GpuHazeUniforms::min_size().get(), 36);
+        assert_eq!(GpuHazeUniforms::min_size().get(), 64);
     }
 
     #[test]
@@ -175,7 +181,13 @@ mod tests {
         let clouds = VolumetricClouds::default();
         let march = MarchSettings::default();
         for visibility in [f32::NAN, -1.0, 0.0, f32::INFINITY, 1.0e6] {
-            let settings = haze_settings(&Haze::with_visibility(visibility), &clouds, &march, &[]);
+            let settings = haze_settings(
+                &Haze::with_visibility(visibility),
+                &clouds,
+                &march,
+                &[],
+                0.2,
+            );
             assert!(!settings.is_active(), "{visibility}");
         }
         let wild = Haze {
@@ -185,7 +197,7 @@ mod tests {
             asymmetry: f32::NEG_INFINITY,
             weather_driven: true,
         };
-        let settings = haze_settings(&wild, &clouds, &march, &[]);
+        let settings = haze_settings(&wild, &clouds, &march, &[], 0.2);
         assert!(settings.is_active());
         assert_eq!(settings.scale_height_m, 1200.0);
         assert_eq!(settings.albedo, 1.0);
@@ -194,7 +206,7 @@ mod tests {
             scale_height_m: 0.0,
             ..wild
         };
-        assert!(!haze_settings(&flat, &clouds, &march, &[]).is_active());
+        assert!(!haze_settings(&flat, &clouds, &march, &[], 0.2).is_active());
     }
 
     #[test]
@@ -210,13 +222,13 @@ mod tests {
             extinction_per_m: 1e-4,
             ..HazeSettings::default()
         };
-        assert_eq!(GpuHazeUniforms::new(&on, true).shafts, 1);
-        assert_eq!(GpuHazeUniforms::new(&on, false).shafts, 0);
+        assert_eq!(GpuHazeUniforms::new(&on, [1.0; 3], true).shafts, 1);
+        assert_eq!(GpuHazeUniforms::new(&on, [1.0; 3], false).shafts, 0);
         let off = HazeSettings {
             shafts: false,
             ..on
         };
-        assert_eq!(GpuHazeUniforms::new(&off, true).shafts, 0);
+        assert_eq!(GpuHazeUniforms::new(&off, [1.0; 3], true).shafts, 0);
         // A map that follows another camera is shifted into this view's frame.
         let shared = CloudShadowFrame {
             image: AssetId::default(),

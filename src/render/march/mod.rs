@@ -177,7 +177,11 @@ fn prepare_cloud_view_buffers(
         layers.set_label(Some("cloud_march_layers"));
         layers.write_buffer(&device, &queue);
         let shafts = view.shaft_resolution_scale.is_some() && map.is_some();
-        let mut haze = UniformBuffer::from(GpuHazeUniforms::new(&view.haze, shafts));
+        let mut haze = UniformBuffer::from(GpuHazeUniforms::new(
+            &view.haze,
+            view.settings.ambient_top,
+            shafts,
+        ));
         haze.set_label(Some("cloud_haze_uniforms"));
         haze.write_buffer(&device, &queue);
         commands.entity(entity).insert(CloudViewBuffers {
