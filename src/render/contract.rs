@@ -128,6 +128,7 @@ fn rust_constants() -> Vec<(&'static str, Vec<f64>)> {
         ("TOWARD_SUN_COS", scalar(TOWARD_SUN_COS)),
         ("SHADOW_MAP_MIN_SUN_MU", scalar(SHADOW_MAP_MIN_SUN_MU)),
         ("SHADOW_MAP_BLEND_COS", scalar(SHADOW_MAP_BLEND_COS)),
+        ("SHADOW_MAP_FULL_SUN_MU", scalar(SHADOW_MAP_FULL_SUN_MU)),
         (
             "AWAY_FROM_SUN_CUTOFF_GAIN",
             scalar(AWAY_FROM_SUN_CUTOFF_GAIN),

@@ -252,8 +252,9 @@ pub struct VolumetricClouds {
     /// the change draws no ring around the sun), where the phase function's
     /// forward peak turns the map's blur of thin, backlit edges (its texels are 156 m across
     /// the sun at the default 40 km and 256²) into the brightest error, and not under a sun
-    /// below 10°, whose long, nearly level sun lines cross several clouds between the map's
-    /// knots (the cloud top and the altitudes of optical depths 1 and 4). Without a map
+    /// below 10° (mixed in the same way while the sun climbs to 12°), whose long, nearly level
+    /// sun lines cross several clouds between the map's knots (the cloud top and the altitudes
+    /// of optical depths 1 and 4). Without a map
     /// (shadows off, night) the light march runs everywhere. It saves where a ray's samples
     /// take more than four light steps. Default 0 (every such sample; `LOW`, `HIGH` and
     /// `ULTRA` `f32::INFINITY`: never).

@@ -91,11 +91,17 @@ pub fn toward_sun(cos_sun: f64) -> f64 {
 }
 
 /// The sun's elevation, as the sine at the sample, below which a sample takes its sun from the
-/// light march even where the cloud shadow map could give it ([`shadow_map_lights`]): the map
+/// light march even where the cloud shadow map could give it ([`shadow_map_share`]): the map
 /// holds each sun line's optical depth against altitude, and the long, nearly level sun lines
 /// of a low sun cross several clouds between its knots. Sin 10°: the lowest sun at which the
 /// map kept `MEDIUM` within its 5 % of the converged march in the bench's sunset view.
 pub const SHADOW_MAP_MIN_SUN_MU: f64 = 0.173_648_177_666_930_33;
+
+/// The sun's elevation, as the sine at the sample, from which the cloud shadow map gives all
+/// of the optical depth it may give (sin 12°). Between [`SHADOW_MAP_MIN_SUN_MU`] and here its
+/// share grows with the sine ([`shadow_map_share`]), so the clouds do not change at once, all
+/// over the sky, at the instant the sun passes 10°.
+pub const SHADOW_MAP_FULL_SUN_MU: f64 = 0.207_911_690_817_759_31;
 
 /// Where the cloud shadow map has taken over from the light march on every view ray, as the
 /// cosine of the angle to the sun (about 36.9°). Between [`TOWARD_SUN_COS`] (31.8°) and here a
@@ -108,14 +114,18 @@ pub const SHADOW_MAP_BLEND_COS: f64 = 0.8;
 /// ([`MarchSettings::sun_from_shadow_map_m`]), 0–1, where the map covers the sample: none on a
 /// view ray within about 32° of the sun ([`TOWARD_SUN_COS`]), whose forward-scattering peak
 /// turns the map's blur of a thin, backlit edge into its brightest error, nor under a sun
-/// lower than [`SHADOW_MAP_MIN_SUN_MU`]; all of it from [`SHADOW_MAP_BLEND_COS`] out, and a
-/// share growing linearly with the cosine between. WGSL twin: `shadow_map_share`.
+/// lower than [`SHADOW_MAP_MIN_SUN_MU`]; all of it from [`SHADOW_MAP_BLEND_COS`] out under a
+/// sun from [`SHADOW_MAP_FULL_SUN_MU`] up; between, the product of two shares that grow
+/// linearly, with the cosine and with the sun's sine. WGSL twin: `shadow_map_share`.
 pub fn shadow_map_share(cos_sun: f64, mu_sun: f64) -> f64 {
     // NaN counts as a low sun.
     if mu_sun.is_nan() || mu_sun < SHADOW_MAP_MIN_SUN_MU {
         return 0.0;
     }
     saturate((TOWARD_SUN_COS - cos_sun) / (TOWARD_SUN_COS - SHADOW_MAP_BLEND_COS))
+        * saturate(
+            (mu_sun - SHADOW_MAP_MIN_SUN_MU) / (SHADOW_MAP_FULL_SUN_MU - SHADOW_MAP_MIN_SUN_MU),
+        )
 }
 
 /// A primary step thinner than this (optical thickness at its sample) counts as clear for the

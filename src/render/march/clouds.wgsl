@@ -77,6 +77,8 @@ const EDGE_SEARCH_STEPS: u32 = 6u;
 const AWAY_FROM_SUN_CUTOFF_GAIN: f32 = 5.0;
 // Rust: `SHADOW_MAP_MIN_SUN_MU` (sin 10 degrees).
 const SHADOW_MAP_MIN_SUN_MU: f32 = 0.17364817766693033;
+// Rust: `SHADOW_MAP_FULL_SUN_MU` (sin 12 degrees).
+const SHADOW_MAP_FULL_SUN_MU: f32 = 0.20791169081775931;
 // Rust: `SHADOW_MAP_BLEND_COS`.
 const SHADOW_MAP_BLEND_COS: f32 = 0.8;
 
@@ -99,13 +101,14 @@ fn toward_sun(cos_sun: f32) -> f32 {
 
 // How much of a sample's optical depth toward the sun comes from the cloud shadow map: none on a
 // view ray within about 32 degrees of the sun nor under a sun below 10 degrees, all of it from
-// SHADOW_MAP_BLEND_COS out, a share growing linearly with the cosine between. Rust:
-// `shadow_map_share`.
+// SHADOW_MAP_BLEND_COS out under a sun from 12 degrees up, the product of two linear shares
+// between. Rust: `shadow_map_share`.
 fn shadow_map_share(cos_sun: f32, mu_sun: f32) -> f32 {
     if !(mu_sun >= SHADOW_MAP_MIN_SUN_MU) {
         return 0.0;
     }
-    return saturate((TOWARD_SUN_COS - cos_sun) / (TOWARD_SUN_COS - SHADOW_MAP_BLEND_COS));
+    return saturate((TOWARD_SUN_COS - cos_sun) / (TOWARD_SUN_COS - SHADOW_MAP_BLEND_COS))
+        * saturate((mu_sun - SHADOW_MAP_MIN_SUN_MU) / (SHADOW_MAP_FULL_SUN_MU - SHADOW_MAP_MIN_SUN_MU));
 }
 
 // GPU only: the light march is deferred. A sample's source needs its light march toward the

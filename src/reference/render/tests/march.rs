@@ -670,19 +670,26 @@ fn rays_away_from_the_sun_into_the_sky_stop_sooner() {
 
 /// The cloud shadow map takes over from the light march between about 32° and 37° from the sun,
 /// its share of the optical depth growing linearly with the cosine ([`shadow_map_share`]): a
-/// switch at one angle drew a ring around the sun on the clouds. Under a sun below 10° the light
-/// march stays everywhere.
+/// switch at one angle drew a ring around the sun on the clouds. Likewise while the sun climbs
+/// from 10° to 12°: a switch at 10° changed the whole sky at once. Under a sun below 10° the
+/// light march stays everywhere.
 #[test]
 fn the_shadow_map_takes_over_gradually_around_the_sun() {
-    assert_eq!(shadow_map_share(TOWARD_SUN_COS + 0.001, 0.5), 0.0);
-    assert_eq!(shadow_map_share(1.0, 0.5), 0.0);
-    assert_eq!(shadow_map_share(SHADOW_MAP_BLEND_COS - 0.001, 0.5), 1.0);
-    assert_eq!(shadow_map_share(-1.0, 0.5), 1.0);
+    let high = 0.5;
+    assert_eq!(shadow_map_share(TOWARD_SUN_COS + 0.001, high), 0.0);
+    assert_eq!(shadow_map_share(1.0, high), 0.0);
+    assert_eq!(shadow_map_share(SHADOW_MAP_BLEND_COS - 0.001, high), 1.0);
+    assert_eq!(shadow_map_share(-1.0, high), 1.0);
     for fraction in [0.1, 0.25, 0.5, 0.75, 0.9] {
         let cos_sun = TOWARD_SUN_COS - fraction * (TOWARD_SUN_COS - SHADOW_MAP_BLEND_COS);
-        let share = shadow_map_share(cos_sun, 0.5);
+        let share = shadow_map_share(cos_sun, high);
         assert!((share - fraction).abs() < 1e-12, "{fraction}: {share}");
+        let mu_sun =
+            SHADOW_MAP_MIN_SUN_MU + fraction * (SHADOW_MAP_FULL_SUN_MU - SHADOW_MAP_MIN_SUN_MU);
+        let share = shadow_map_share(-1.0, mu_sun);
+        assert!((share - fraction).abs() < 1e-12, "sun {fraction}: {share}");
     }
+    assert_eq!(shadow_map_share(-1.0, SHADOW_MAP_FULL_SUN_MU), 1.0);
     assert_eq!(shadow_map_share(0.0, SHADOW_MAP_MIN_SUN_MU - 0.01), 0.0);
     assert_eq!(shadow_map_share(0.0, f64::NAN), 0.0);
 }
