@@ -8,7 +8,7 @@
 //! open part still shows the clear sky, so the environment map keeps `1 − c` of its intensity and
 //! its colour. The covered part sends the diffuse light out of the cloud base: `E_d(τ)`, the
 //! δ-Eddington diffuse irradiance under a deck of the mean vertical optical depth `τ` of the
-//! cloudy part ([`deck_irradiance`], validated against DISORT; each layer's extinction times its
+//! cloudy part ([`deck_irradiance`](crate::reference::render::deck_irradiance), validated against DISORT; each layer's extinction times its
 //! mean profile density over the part above the camera, weighted by its coverage), per colour
 //! channel from the sun's and the clear sky's colours, and raised by the light the ground reflects
 //! and the deck sends back. Clouds scatter all colours alike, so that light is the colour of the
@@ -16,7 +16,7 @@
 //! `AmbientLight` as the radiance `c E_d / π` of a uniform sky. A camera without an environment
 //! map has its ambient light scaled by the ratio of the two irradiances instead
 //! ([`SkyLightUnderClouds::factor`]), `((1 − c) π L + c E_d(τ)) / π L` with `L` the clear sky's radiance
-//! ([`MarchSettings::ambient_top`]). Under a thin veil the ratio exceeds 1: the sun's light
+//! ([`MarchSettings::ambient_top`](crate::reference::render::MarchSettings::ambient_top)). Under a thin veil the ratio exceeds 1: the sun's light
 //! scattered in the cloud outshines the clear sky's.
 
 use bevy::{

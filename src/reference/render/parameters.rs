@@ -89,8 +89,8 @@ pub struct MarchSettings {
     /// first [`SHADOW_MAP_NEAR_TEXELS`] texels of the cloud shadow map toward the sun, in at most
     /// [`SHADOW_MAP_NEAR_STEPS`] steps, and takes the rest of its optical depth from the map
     /// ([`ShadowMapImage::sun_optical_depth`] at the end of that march), where the map covers it
-    /// and may light it ([`shadow_map_lights`](super::shadow_map_lights)). Infinity (the default): always the full light
-    /// march. The map is the `shadow` argument of
+    /// and may light it ([`shadow_map_share`](super::shadow_map_share)). Infinity (the
+    /// default): always the full light march. The map is the `shadow` argument of
     /// [`march_clouds`] (on the GPU, the bound map).
     pub sun_from_shadow_map_m: f64,
     /// Shortest primary step, metres: a short interval (a thin layer, a fog bank) gets fewer
