@@ -773,7 +773,7 @@ mod tests {
     }
 
     /// A sample reads its sun from the map only where the map may light it
-    /// ([`shadow_map_lights`](crate::reference::render::shadow_map_lights)): a map with a wrong
+    /// ([`shadow_map_share`](crate::reference::render::shadow_map_share)): a map with a wrong
     /// optical depth (50 on every sun line below the slab's top) changes a ray away from a 40°
     /// sun, and leaves a ray toward it, and a ray under a 5° sun, exactly as the light march has
     /// them.
