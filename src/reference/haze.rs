@@ -106,16 +106,13 @@ pub struct HazeSettings {
     /// The sun's transmittance through the clouds used without shafts or without a map, 0–1
     /// ([`mean_sun_transmittance`]). Default 1.
     pub sun_transmittance: f64,
-    /// The fraction of the sky's diffuse light that gets through the clouds to the haze, 0–1
-    /// ([`mean_diffuse_transmittance`]): it dims the ground's light on the haze, and without
-    /// [`HazeSettings::sky_radiance`] the sky's. Default 1.
+    /// The fraction of the sky's diffuse light that gets through the clouds, 0–1
+    /// ([`mean_diffuse_transmittance`]): it dims the ground's light on the haze. Default 1.
     pub ambient_transmittance: f64,
     /// The mean radiance of the sky above the haze, clouds included, RGB, in the units of
-    /// [`MarchSettings::ambient_top`]: the open sky's share of the clear sky's light plus the
-    /// light the clouds' bases send down, the sun's and the sky's that crossed them (the
-    /// renderer sets it from the diffuse flux under the clouds, validated against DISORT). `None`
-    /// takes the clear sky's `ambient_top` times [`HazeSettings::ambient_transmittance`], which
-    /// leaves the clouds' own light out. Default `None`.
+    /// [`MarchSettings::ambient_top`] ([`sky_above_clouds`]: the open sky's share of the clear
+    /// sky's light plus the light the clouds' bases send down). `None`: no clouds above, the
+    /// clear sky's `ambient_top`. Default `None`.
     pub sky_radiance: Option<[f64; 3]>,
 }
 
@@ -137,11 +134,10 @@ impl Default for HazeSettings {
 }
 
 impl HazeSettings {
-    /// The mean radiance of the sky above the haze ([`HazeSettings::sky_radiance`]) under a
-    /// clear sky of radiance `ambient_top`.
+    /// The mean radiance of the sky above the haze ([`HazeSettings::sky_radiance`]), where the
+    /// clear sky's is `ambient_top`.
     pub fn sky_radiance_or(&self, ambient_top: [f64; 3]) -> [f64; 3] {
-        self.sky_radiance
-            .unwrap_or_else(|| ambient_top.map(|a| a * self.ambient_transmittance))
+        self.sky_radiance.unwrap_or(ambient_top)
     }
 
     /// Whether there is haze to march: a positive, finite extinction and scale height.

@@ -357,8 +357,8 @@ mod tests {
     /// ([`HazeSettings::sky_radiance`](crate::reference::haze::HazeSettings::sky_radiance))
     /// under half a deck of optical depth 8 is the open half's clear sky plus the deck's diffuse
     /// flux as a uniform sky, within 10 % of DISORT's (slabs.csv: optical depth 8, sun 40°, sky
-    /// 0.05: 0.2753 down at the base, all but 2·10⁻⁵ of it diffuse). That is 1.8 times the
-    /// clear sky's light through the clouds alone, which is all the haze saw before.
+    /// 0.05: 0.2753 down at the base, all but 2·10⁻⁵ of it diffuse). The clear sky's light
+    /// through the clouds alone, which is all the haze saw before, misses that by far more.
     #[test]
     fn the_haze_under_broken_clouds_sees_their_sunlit_bases() {
         let clouds = VolumetricClouds::default();
@@ -384,8 +384,8 @@ mod tests {
         );
         let through = 0.05 * haze.ambient_transmittance;
         assert!(
-            disort > 1.5 * through && sky > 1.5 * through,
-            "sky {sky}, the sky's light through the clouds {through}"
+            (through / disort - 1.0).abs() > 0.10,
+            "the sky's light through the clouds {through} would meet DISORT's {disort} as well"
         );
     }
 

@@ -70,7 +70,9 @@ fn showcase_scenes_match_the_cpu_reference() {
         );
         if scene.name == "cirrostratus_halo" {
             // Along the middle row, 22.5° from the sun (the ring) against 19° (inside it) on
-            // both sides: the camera's 60° vertical field of view at 16:9.
+            // both sides: the camera's 60° vertical field of view at 16:9. Brighter by more
+            // than the 2 % contrast an eye tells apart (Koschmieder's threshold); without the
+            // halo the forward lobe makes 19° the brighter.
             let half_width = (30f32.to_radians().tan() * size.x as f32 / size.y as f32).atan();
             let at = |degrees: f32| {
                 let x = degrees.to_radians().tan() / half_width.tan();
@@ -80,7 +82,10 @@ fn showcase_scenes_match_the_cpu_reference() {
             };
             let (ring, inside) = (at(22.5) + at(-22.5), at(19.0) + at(-19.0));
             eprintln!("halo: ring {ring:.4}, inside {inside:.4}");
-            assert!(ring > 1.2 * inside, "no halo: ring {ring}, inside {inside}");
+            assert!(
+                ring > 1.02 * inside,
+                "no halo: ring {ring}, inside {inside}"
+            );
         }
     }
 }

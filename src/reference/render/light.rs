@@ -715,8 +715,9 @@ impl SkyLightUnderClouds {
     };
 }
 
-/// The sky light of [`crate::render::sky_light`]'s module docs for a march's settings and layers (the camera at
-/// [`MarchSettings::camera_altitude_m`]) over a ground of albedo `ground_albedo` (0–1): the light
+/// The sky light of [`crate::render::sky_light`]'s module docs for a march's settings and
+/// layers (the camera at [`MarchSettings::camera_altitude_m`]) over a ground of albedo
+/// `ground_albedo` (0–1): the light
 /// the ground sends back up is reflected down again by the deck, `1 / (1 − A R)` more, `R` the
 /// deck's reflectance for diffuse light from below, `1 − (4/3) / (4/3 + (1 − g) τ)`.
 /// [`SkyLightUnderClouds::CLEAR`] when the clear sky sends no light.

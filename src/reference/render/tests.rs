@@ -502,8 +502,10 @@ fn phase_and_jitter_stay_in_range() {
     assert!((step_warp(0.5, 3.0) - 1.0 / 3.0).abs() < 1e-15);
 }
 
-/// The halo's ring is a phase function: it integrates to 1 over the sphere (the midpoint rule
-/// on 0.001° steps), is 0 inside its inner edge's ramp and peaks at [`HALO_ANGLE_DEG`].
+/// The halo's ring is a phase function: it is finite and never negative, and it integrates to
+/// 1 over the sphere (the midpoint rule on 0.001° steps, whose own error is far below the
+/// 10⁻⁴ allowed). It is 0 inside its inner edge's ramp and peaks at [`HALO_ANGLE_DEG`], to
+/// within a step of the grid.
 #[test]
 fn the_halo_ring_integrates_to_one_and_peaks_at_22_degrees() {
     let steps = 180_000;
@@ -521,8 +523,8 @@ fn the_halo_ring_integrates_to_one_and_peaks_at_22_degrees() {
     }
     assert!((total - 1.0).abs() < 1e-4, "integral {total}");
     assert!(
-        (peak.0 - HALO_ANGLE_DEG).abs() < 0.01,
-        "peak at {:.3}°",
+        (peak.0 - HALO_ANGLE_DEG).abs() <= dtheta.to_degrees(),
+        "peak at {:.4}°",
         peak.0
     );
     assert_eq!(
@@ -532,10 +534,12 @@ fn the_halo_ring_integrates_to_one_and_peaks_at_22_degrees() {
     assert_eq!(halo_phase(1.0), 0.0);
 }
 
-/// A thin veil (optical depth 0.3) with the default halo share (`CloudWorld::halo_share`) shows a ring: from below, looking 22.5°
-/// from the sun is brighter than 20° (inside the ring) and 26° (outside it), where without the
-/// halo the forward lobe makes the radiance fall with the angle. Multiple scattering on, the sun
-/// 50° up.
+/// A thin veil (optical depth 0.3) with the default halo share (`CloudWorld::halo_share`)
+/// shows a ring: from below, looking 22.5° from the sun is brighter than 20° (inside the ring)
+/// and 26° (outside it) by more than the 2 % contrast an eye tells apart (the threshold of
+/// Koschmieder's visibility, [`KOSCHMIEDER_CONSTANT`](crate::reference::haze::KOSCHMIEDER_CONSTANT)),
+/// where without the halo the forward lobe makes the radiance fall with the angle. Multiple
+/// scattering on, the sun 50° up.
 #[test]
 fn a_veil_with_a_halo_share_shows_a_ring_at_22_degrees() {
     let sun_elevation: f64 = 50.0;
@@ -573,8 +577,9 @@ fn a_veil_with_a_halo_share_shows_a_ring_at_22_degrees() {
          {plain_ring:.4} {plain_outside:.4}"
     );
     assert!(plain_inside > plain_ring && plain_ring > plain_outside);
-    assert!(ring > 1.2 * inside, "ring {ring}, inside {inside}");
-    assert!(ring > 1.2 * outside, "ring {ring}, outside {outside}");
+    let visible = 1.02;
+    assert!(ring > visible * inside, "ring {ring}, inside {inside}");
+    assert!(ring > visible * outside, "ring {ring}, outside {outside}");
     // Inside the ring the veil loses the halo's share of its forward lobe.
     assert!(inside < plain_inside);
 }
