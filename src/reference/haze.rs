@@ -57,9 +57,27 @@ use super::shadow::ShadowMapImage;
 pub const KOSCHMIEDER_CONSTANT: f64 = 3.912;
 
 /// Extinction of clean air near sea level at 550 nm, 1/m, that Bevy's atmosphere already draws:
-/// Rayleigh `1.16 × 10⁻⁵` (Bucholtz 1995) plus the `4.4 × 10⁻⁶` Mie extinction of Bevy's
-/// default Earth atmosphere. A visibility of 245 km or more adds no haze.
-pub const CLEAR_AIR_EXTINCTION_PER_M: f64 = 1.6e-5;
+/// [`CLEAR_AIR_RAYLEIGH_EXTINCTION_PER_M`] plus [`CLEAR_AIR_MIE_EXTINCTION_PER_M`]. A visibility
+/// of 245 km or more adds no haze.
+pub const CLEAR_AIR_EXTINCTION_PER_M: f64 =
+    CLEAR_AIR_RAYLEIGH_EXTINCTION_PER_M + CLEAR_AIR_MIE_EXTINCTION_PER_M;
+
+/// Rayleigh extinction of clean air at sea level and 550 nm, 1/m (Bucholtz 1995, "Rayleigh-
+/// scattering calculations for the terrestrial atmosphere"). WGSL twin:
+/// `CLEAR_AIR_RAYLEIGH_EXTINCTION_PER_M`.
+pub const CLEAR_AIR_RAYLEIGH_EXTINCTION_PER_M: f64 = 1.16e-5;
+
+/// Mie (aerosol) extinction of clean air at sea level, 1/m: the scattering plus absorption of
+/// Bevy's default Earth atmosphere. WGSL twin: `CLEAR_AIR_MIE_EXTINCTION_PER_M`.
+pub const CLEAR_AIR_MIE_EXTINCTION_PER_M: f64 = 4.4e-6;
+
+/// Scale height of the air's Rayleigh extinction, m (Bevy's default Earth atmosphere). WGSL
+/// twin: `RAYLEIGH_SCALE_HEIGHT_M`.
+pub const RAYLEIGH_SCALE_HEIGHT_M: f64 = 8000.0;
+
+/// Scale height of the clean air's Mie extinction, m (Bevy's default Earth atmosphere). WGSL
+/// twin: `MIE_SCALE_HEIGHT_M`.
+pub const MIE_SCALE_HEIGHT_M: f64 = 1200.0;
 
 /// The haze stops this many scale heights above the ground (`e^(−8)`: 0.03 % of its ground
 /// density).

@@ -126,6 +126,20 @@ fn rust_constants() -> Vec<(&'static str, Vec<f64>)> {
             scalar(FULL_LIGHT_STEPS_TRANSMITTANCE),
         ),
         ("TOWARD_SUN_COS", scalar(TOWARD_SUN_COS)),
+        (
+            "CLEAR_AIR_RAYLEIGH_EXTINCTION_PER_M",
+            scalar(haze::CLEAR_AIR_RAYLEIGH_EXTINCTION_PER_M),
+        ),
+        (
+            "CLEAR_AIR_MIE_EXTINCTION_PER_M",
+            scalar(haze::CLEAR_AIR_MIE_EXTINCTION_PER_M),
+        ),
+        (
+            "RAYLEIGH_SCALE_HEIGHT_M",
+            scalar(haze::RAYLEIGH_SCALE_HEIGHT_M),
+        ),
+        ("MIE_SCALE_HEIGHT_M", scalar(haze::MIE_SCALE_HEIGHT_M)),
+        ("CLEAR_AIR_STEPS", scalar(CLEAR_AIR_STEPS.into())),
         ("SHADOW_MAP_MIN_SUN_MU", scalar(SHADOW_MAP_MIN_SUN_MU)),
         ("SHADOW_MAP_BLEND_COS", scalar(SHADOW_MAP_BLEND_COS)),
         ("SHADOW_MAP_FULL_SUN_MU", scalar(SHADOW_MAP_FULL_SUN_MU)),

@@ -174,6 +174,7 @@ pub fn march_inputs<'a>(
         phase_blend: f64::from(world.phase_blend),
         pixel_angle_rad,
         frame_index,
+        clear_air: true,
         ..settings.march_knobs()
     };
 
@@ -349,7 +350,8 @@ pub(crate) struct GpuCloudUniforms {
     march_uv_scale: Vec2,
     light_steps_per_footprint: f32,
     light_steps_away_from_sun: f32,
-    _pad2: UVec2,
+    clear_air: u32,
+    _pad2: u32,
     camera_up: Vec4,
     sun_direction: Vec4,
     sun_illuminance: Vec4,
@@ -424,7 +426,8 @@ impl GpuCloudUniforms {
             light_steps_away_from_sun: crate::reference::render::away_from_sun_share(
                 settings.light_steps_away_from_sun,
             ),
-            _pad2: UVec2::ZERO,
+            clear_air: u32::from(settings.clear_air),
+            _pad2: 0,
             camera_up: vec4(settings.camera_up),
             sun_direction: vec4(settings.sun_direction),
             sun_illuminance: vec4(settings.sun_illuminance),
@@ -889,7 +892,12 @@ mod tests {
         assert_eq!((rain.base_m, rain.top_m), (0.0, f64::from(layer.base_m)));
         let sigma = f64::from(crate::layers::rain::rain_extinction_per_m(1.0));
         assert!((rain.extinction - sigma).abs() < 1e-12);
-        // A level ray under the cloud base through 3 km of rain: Beer–Lambert.
+        // A level ray under the cloud base through 3 km of rain: Beer–Lambert, the rain alone
+        // (the clear air in front of it is `clear_air_transmittance`'s test).
+        let march = MarchSettings {
+            clear_air: false,
+            ..march
+        };
         let textures = CloudTextures::from_recipe(&NoiseRecipe {
             base_size: 8,
             detail_size: 8,

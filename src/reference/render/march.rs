@@ -14,6 +14,10 @@ use super::{
     point_mu_sun, profile_column, sample_source, saturate, scale, scattering_albedo, step_warp,
     sun_optical_depth, total_extinction,
 };
+use crate::reference::haze::{
+    CLEAR_AIR_MIE_EXTINCTION_PER_M, CLEAR_AIR_RAYLEIGH_EXTINCTION_PER_M, MIE_SCALE_HEIGHT_M,
+    RAYLEIGH_SCALE_HEIGHT_M,
+};
 use crate::reference::shadow::ShadowMapImage;
 
 /// Most primary steps per interval; larger [`MarchSettings::primary_steps`] are clamped.
@@ -847,10 +851,69 @@ pub fn march_clouds(
         t = end;
     }
     ray.add_background(t_end);
-    MarchResult {
+    let result = MarchResult {
         radiance: ray.radiance,
         transmittance: ray.transmittance,
         distance_m: ray.distance(),
+    };
+    if settings.clear_air {
+        let air = clear_air_transmittance(camera_altitude_m, mu, result.distance_m, radius);
+        fade_into_air(result, air)
+    } else {
+        result
+    }
+}
+
+/// Steps of [`clear_air_transmittance`]'s midpoint rule. WGSL twin: `CLEAR_AIR_STEPS`.
+pub const CLEAR_AIR_STEPS: u32 = 12;
+
+/// Transmittance of the clear air at 550 nm along a view ray from a camera `camera_altitude_m`
+/// above the ground (`mu` the cosine of the ray's angle to the vertical) to `distance_m`:
+/// `e^(−τ)`, with `τ` the integral of the Rayleigh and Mie extinction of clean air
+/// ([`CLEAR_AIR_RAYLEIGH_EXTINCTION_PER_M`], [`CLEAR_AIR_MIE_EXTINCTION_PER_M`]), each falling
+/// off exponentially with altitude ([`RAYLEIGH_SCALE_HEIGHT_M`], [`MIE_SCALE_HEIGHT_M`]), by
+/// the midpoint rule over [`CLEAR_AIR_STEPS`] steps with boundaries at `d (k/n)²` (short near
+/// the camera, where a rising ray's air is densest) on the curved planet. 1 for a
+/// distance that is not positive and finite (no cloud). Computed in f32 on the GPU. WGSL twin:
+/// `clear_air_transmittance`.
+pub fn clear_air_transmittance(
+    camera_altitude_m: f64,
+    mu: f64,
+    distance_m: f64,
+    planet_radius_m: f64,
+) -> f64 {
+    if !(distance_m > 0.0 && distance_m.is_finite()) {
+        return 1.0;
+    }
+    let n = f64::from(CLEAR_AIR_STEPS);
+    let optical_depth: f64 = (0..CLEAR_AIR_STEPS)
+        .map(|k| {
+            let s0 = distance_m * (f64::from(k) / n).powi(2);
+            let s1 = distance_m * (f64::from(k + 1) / n).powi(2);
+            let s = 0.5 * (s0 + s1);
+            let altitude = altitude_along_ray(camera_altitude_m, mu, s, planet_radius_m).max(0.0);
+            (CLEAR_AIR_RAYLEIGH_EXTINCTION_PER_M * (-altitude / RAYLEIGH_SCALE_HEIGHT_M).exp()
+                + CLEAR_AIR_MIE_EXTINCTION_PER_M * (-altitude / MIE_SCALE_HEIGHT_M).exp())
+                * (s1 - s0)
+        })
+        .sum();
+    (-optical_depth).exp()
+}
+
+/// The clouds of `result` seen through clear air of transmittance `air` in front of them,
+/// which lets through `air` of their light and adds `1 − air` of the light behind them in
+/// place of what they hide: radiance `air · L`, transmittance `1 − air · (1 − T)`. The air's
+/// own light in front of the clouds is taken to be that share of the light behind them (the
+/// sky or the scene, which carries the air's light to its own distance): exact for clouds in
+/// front of a distant horizon, whose radiance is the air light of a long path (Koschmieder
+/// 1924). So distant clouds thin into the sky and the far hills as a photograph shows them.
+/// The composite `scene · T + L` does the rest. WGSL twin: `fade_into_air`.
+pub fn fade_into_air(result: MarchResult, air: f64) -> MarchResult {
+    let air = air.clamp(0.0, 1.0);
+    MarchResult {
+        radiance: result.radiance.map(|l| air * l),
+        transmittance: 1.0 - air * (1.0 - result.transmittance),
+        distance_m: result.distance_m,
     }
 }
 

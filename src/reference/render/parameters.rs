@@ -70,6 +70,12 @@ pub struct MarchSettings {
     /// sun and the sky. Off: single scattering and a sky light growing with height in the
     /// layer. Default true.
     pub multiple_scattering: bool,
+    /// Fade the clouds into what lies behind them by the transmittance of the clear air between
+    /// the camera and the clouds ([`clear_air_transmittance`](super::clear_air_transmittance)):
+    /// the aerial perspective that veils distant clouds. The renderer turns it on
+    /// ([`march_inputs`](crate::render::view::march_inputs)); the validation against DISORT and
+    /// Mitsuba, whose scenes have no air, leaves it off. Default false.
+    pub clear_air: bool,
     /// Asymmetry of the forward Henyey-Greenstein lobe (Hillaire 2016). Default 0.8.
     pub phase_g_forward: f64,
     /// Asymmetry of the backward lobe, negative. Default −0.3.
@@ -124,6 +130,7 @@ impl Default for MarchSettings {
             step_growth: 0.001,
             transmittance_cutoff: 0.01,
             multiple_scattering: true,
+            clear_air: false,
             phase_g_forward: 0.8,
             phase_g_back: -0.3,
             phase_blend: 0.2,

@@ -706,5 +706,45 @@ fn march_clouds(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter:
     if ray.opacity > 0.0 {
         distance = ray.opacity_distance / ray.opacity;
     }
-    return CloudMarch(vec4<f32>(ray.radiance, ray.transmittance), distance);
+    var colour = vec4<f32>(ray.radiance, ray.transmittance);
+    if clouds.clear_air != 0u {
+        colour = fade_into_air(colour, clear_air_transmittance(h, mu, distance));
+    }
+    return CloudMarch(colour, distance);
+}
+
+// Rust: the constants of the same names in reference/haze.rs and (CLEAR_AIR_STEPS)
+// reference/render/march.rs.
+const CLEAR_AIR_RAYLEIGH_EXTINCTION_PER_M: f32 = 1.16e-5;
+const CLEAR_AIR_MIE_EXTINCTION_PER_M: f32 = 4.4e-6;
+const RAYLEIGH_SCALE_HEIGHT_M: f32 = 8000.0;
+const MIE_SCALE_HEIGHT_M: f32 = 1200.0;
+const CLEAR_AIR_STEPS: u32 = 12u;
+
+// Transmittance of the clear air along the view ray from the camera (altitude h, mu) to
+// distance_m, midpoints of CLEAR_AIR_STEPS steps with boundaries at distance_m (k/n)^2; 1 for
+// FAR_AWAY (no cloud). Rust: `clear_air_transmittance`.
+fn clear_air_transmittance(h: f32, mu: f32, distance_m: f32) -> f32 {
+    if !(distance_m > 0.0 && distance_m < FAR_AWAY) {
+        return 1.0;
+    }
+    let n = f32(CLEAR_AIR_STEPS);
+    var optical_depth = 0.0;
+    for (var k = 0u; k < CLEAR_AIR_STEPS; k++) {
+        let u0 = f32(k) / n;
+        let u1 = f32(k + 1u) / n;
+        let s0 = distance_m * u0 * u0;
+        let s1 = distance_m * u1 * u1;
+        let altitude = max(altitude_along_ray(h, mu, 0.5 * (s0 + s1), clouds.planet_radius_m), 0.0);
+        optical_depth += (CLEAR_AIR_RAYLEIGH_EXTINCTION_PER_M * exp(-altitude / RAYLEIGH_SCALE_HEIGHT_M)
+            + CLEAR_AIR_MIE_EXTINCTION_PER_M * exp(-altitude / MIE_SCALE_HEIGHT_M)) * (s1 - s0);
+    }
+    return exp(-optical_depth);
+}
+
+// (L, T) seen through clear air of transmittance `air`: (air L, 1 - air (1 - T)). Rust:
+// `fade_into_air`.
+fn fade_into_air(colour: vec4<f32>, air_in: f32) -> vec4<f32> {
+    let air = saturate(air_in);
+    return vec4<f32>(air * colour.rgb, 1.0 - air * (1.0 - colour.a));
 }

@@ -64,7 +64,10 @@ struct CloudUniforms {
     // Share of light_steps a view ray 60 degrees or more from the sun takes (Rust:
     // `MarchSettings::light_steps_away_from_sun`; `ray_light_steps`).
     light_steps_away_from_sun: f32,
-    pad_c: vec2<u32>,
+    // 1: the clouds fade into what lies behind them by the clear air's transmittance to them
+    // (Rust: `MarchSettings::clear_air`).
+    clear_air: u32,
+    pad_c: u32,
     // xyz: unit vector from the planet centre through the camera.
     camera_up: vec4<f32>,
     // xyz: unit vector toward the sun, world space.

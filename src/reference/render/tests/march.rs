@@ -693,3 +693,102 @@ fn the_shadow_map_takes_over_gradually_around_the_sun() {
     assert_eq!(shadow_map_share(0.0, SHADOW_MAP_MIN_SUN_MU - 0.01), 0.0);
     assert_eq!(shadow_map_share(0.0, f64::NAN), 0.0);
 }
+
+/// The clear air's transmittance by its 12-step midpoint rule against a fine integral of the same
+/// extinction, and its sea-level limit. The fade is a contrast, so its error must stay below the
+/// 2 % contrast an eye notices (Koschmieder 1924): 1 % here, from the ground and from a cloud
+/// layer's altitude, level, grazing, rising and looking down, out to 300 km.
+#[test]
+fn the_clear_air_transmittance_matches_a_fine_integral() {
+    use crate::reference::haze::{
+        CLEAR_AIR_EXTINCTION_PER_M, CLEAR_AIR_MIE_EXTINCTION_PER_M,
+        CLEAR_AIR_RAYLEIGH_EXTINCTION_PER_M, MIE_SCALE_HEIGHT_M, RAYLEIGH_SCALE_HEIGHT_M,
+    };
+    let r = EARTH_RADIUS_M;
+    let fine = |h: f64, mu: f64, d: f64| {
+        let n = 20_000;
+        let ds = d / f64::from(n);
+        let tau: f64 = (0..n)
+            .map(|k| {
+                let z = altitude_along_ray(h, mu, (f64::from(k) + 0.5) * ds, r).max(0.0);
+                CLEAR_AIR_RAYLEIGH_EXTINCTION_PER_M * (-z / RAYLEIGH_SCALE_HEIGHT_M).exp()
+                    + CLEAR_AIR_MIE_EXTINCTION_PER_M * (-z / MIE_SCALE_HEIGHT_M).exp()
+            })
+            .sum::<f64>()
+            * ds;
+        (-tau).exp()
+    };
+    for h in [0.0, 500.0, 2000.0] {
+        for mu in [-0.02, 0.0, 0.01, 0.05, 0.2, 1.0] {
+            for d in [1_000.0_f64, 20_000.0, 80_000.0, 300_000.0] {
+                // Rays that would go under the ground stop there.
+                let d = d.min(ground_distance(h, mu, r));
+                let t = clear_air_transmittance(h, mu, d, r);
+                let expected = fine(h, mu, d);
+                assert!(
+                    (t - expected).abs() < 0.01,
+                    "h {h} m, mu {mu}, {d} m: {t} against {expected}"
+                );
+            }
+        }
+    }
+    // Level at sea level over 1 km, where the air is nearly uniform: e^(−σ₀ d).
+    let level = clear_air_transmittance(0.0, 0.0, 1000.0, r);
+    assert!((level - (-CLEAR_AIR_EXTINCTION_PER_M * 1000.0).exp()).abs() < 1e-4);
+    for no_cloud in [f64::INFINITY, 0.0, -1.0, f64::NAN] {
+        assert_eq!(clear_air_transmittance(0.0, 0.1, no_cloud, r), 1.0);
+    }
+}
+
+/// An overcast deck seen at a grazing angle 60 km away fades into what lies behind it by the
+/// clear air in front of it, while the same deck overhead keeps its look: the far one's
+/// opacity and light fall to the air's transmittance, which Koschmieder's law puts near
+/// `e^(−3.912 · 60 / 245) = 0.38` for clean air at sea level (visibility 245 km) and higher
+/// aloft, so between 0.3 and 0.8 of the airless values; the one overhead keeps 98 % or more.
+#[test]
+fn distant_clouds_fade_into_the_air_in_front_of_them() {
+    let layer = slab(0.002);
+    let airless = MarchSettings {
+        primary_steps: 64,
+        jitter: false,
+        ..MarchSettings::default()
+    };
+    let with_air = MarchSettings {
+        clear_air: true,
+        ..airless.clone()
+    };
+    let r = EARTH_RADIUS_M;
+    // The ray that meets the base 1000 m up at 60 km.
+    let t_base = 60_000.0;
+    let mu = ((r + 1000.0).powi(2) - r * r - t_base * t_base) / (2.0 * r * t_base);
+    let direction = [(1.0 - mu * mu).sqrt(), mu, 0.0];
+    let march = |settings: &MarchSettings, direction: [f64; 3]| {
+        march_clouds(
+            textures(),
+            settings,
+            std::slice::from_ref(&layer),
+            0.0,
+            UP,
+            direction,
+            f64::INFINITY,
+            0.5,
+            None,
+        )
+    };
+    let (far_off, far_on) = (march(&airless, direction), march(&with_air, direction));
+    let (near_off, near_on) = (march(&airless, UP), march(&with_air, UP));
+    for (off, on, low, high) in [
+        (&far_off, &far_on, 0.3, 0.8),
+        (&near_off, &near_on, 0.98, 1.0),
+    ] {
+        assert_sane(on, "with air");
+        let opacity = (1.0 - on.transmittance) / (1.0 - off.transmittance);
+        let light = on.radiance[1] / off.radiance[1];
+        assert!(
+            (low..=high).contains(&opacity) && (low..=high).contains(&light),
+            "opacity kept {opacity}, light kept {light} (cloud at {} m)",
+            off.distance_m
+        );
+        assert_eq!(on.distance_m, off.distance_m);
+    }
+}
