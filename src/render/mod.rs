@@ -8,9 +8,9 @@
 //!   weather noise's texels around the camera, for the march to read.
 //! - [`march`]: a fullscreen pass per camera with [`VolumetricClouds`] that ray-marches the
 //!   [`CloudLayer`](crate::layers::CloudLayer)s, stops at scene geometry and composites the clouds
-//!   over the scene in HDR. The clear air in front of each cloud veils it: the cloud keeps the
-//!   air's transmittance to it of its light and opacity, so distant clouds fade into the sky and
-//!   the hills behind them (aerial perspective;
+//!   over the scene in HDR. In a scene with Bevy's `Atmosphere` the clear air in front of each
+//!   cloud veils it: the cloud keeps the air's transmittance to it of its light and opacity, so
+//!   distant clouds fade into the sky and the hills behind them (aerial perspective;
 //!   [`clear_air_transmittance`](crate::reference::render::clear_air_transmittance)).
 //! - [`haze`]: the haze the forecast's visibility gives, marched in the same pass after the
 //!   clouds, with light shafts: a pass at a reduced resolution reads the cloud shadow map along

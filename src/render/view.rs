@@ -174,7 +174,6 @@ pub fn march_inputs<'a>(
         phase_blend: f64::from(world.phase_blend),
         pixel_angle_rad,
         frame_index,
-        clear_air: true,
         ..settings.march_knobs()
     };
 
@@ -193,6 +192,10 @@ pub fn march_inputs<'a>(
                 [1.0; 3]
             };
             let visible = crate::sky::sun_visibility(elevation_deg) as f64;
+            // The fade into what lies behind a cloud takes that for the air's light, which it
+            // is where Bevy's atmosphere draws the sky and the aerial perspective; a plain
+            // background (a clear colour, black) is not, and would tint far clouds with it.
+            march.clear_air = sun.through_atmosphere;
             march.sun_direction = direction.to_array();
             march.sun_illuminance =
                 std::array::from_fn(|c| sun.illuminance_rgb[c] * transmittance[c] * visible);

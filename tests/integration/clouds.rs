@@ -90,6 +90,78 @@ fn showcase_scenes_match_the_cpu_reference() {
     }
 }
 
+/// In a scene with Bevy's `Atmosphere` the clear air in front of the clouds veils them: the
+/// GPU's march, fade included, matches its CPU twin, and the far cumulus toward the horizon
+/// show less of their opacity than without an atmosphere (the twin's
+/// `distant_clouds_fade_into_the_air_in_front_of_them` gives the amount). Without one the fade
+/// is off: the background is then no air light.
+#[test]
+fn far_clouds_fade_into_the_air_under_bevys_atmosphere() {
+    use bevy::light::{Atmosphere, atmosphere::ScatteringMedium};
+    let size = UVec2::new(96, 54);
+    let (textures, mut rig) = small_rig(size);
+    let scene = Scene {
+        name: "air_fair_cumulus",
+        camera: looking(Vec3::new(0.0, 2.0, 0.0), 8.0, 0.0),
+        sun_deg: (40.0, 150.0),
+        layers: vec![layer(CloudKind::Cumulus, 0.5)],
+        settings: settings(64),
+    };
+    rig.set_scene(&scene);
+    let (_, airless_t) = rig.render(4);
+    let airless = rig.rendered_view.clone().expect("a rendered view");
+    assert!(!airless.settings.clear_air, "no atmosphere, no fade");
+    {
+        let world = rig.app.world();
+        let medium = world
+            .resource_mut::<Assets<ScatteringMedium>>()
+            .add(ScatteringMedium::earth(64, 64));
+        world
+            .entity_mut(rig.camera)
+            .insert(Atmosphere::earth(medium));
+    }
+    let (gpu_l, gpu_t) = rig.render(4);
+    assert!(
+        rig.rendered_view
+            .as_ref()
+            .expect("a rendered view")
+            .settings
+            .clear_air,
+        "an atmosphere turns the fade on"
+    );
+    let (cpu_l, cpu_t) = rig.reference(&textures);
+    save_strip(
+        &output_dir().join(format!("clouds_{}.png", scene.name)),
+        size,
+        &[&gpu_l, &cpu_l],
+    );
+    let (error, t_rmse, mean_t) = twin_difference((&gpu_l, &gpu_t), (&cpu_l, &cpu_t));
+    eprintln!("air: relative RMSE {error:.4}, RMSE of T {t_rmse:.4}, mean T {mean_t:.3}");
+    assert!(error <= TWIN_RELATIVE_RMSE, "relative RMSE {error}");
+    assert!(t_rmse <= TWIN_T_RMSE, "transmittance RMSE {t_rmse}");
+    // The rows from level up to 4° (the camera looks 8° up with a 60° field of view): clouds
+    // tens of kilometres away, where clean air lets through well under 0.8 of their opacity.
+    let row_of = |degrees: f32| {
+        let half = 30f32.to_radians().tan();
+        let y = (8f32 - degrees).to_radians().tan() / half;
+        ((y + 1.0) * 0.5 * size.y as f32) as u32
+    };
+    let opacity = |t: &[f32]| {
+        let rows = row_of(4.0)..row_of(0.0);
+        let pixels = rows.len() as u32 * size.x;
+        rows.flat_map(|row| (0..size.x).map(move |x| (row * size.x + x) as usize))
+            .map(|i| 1.0 - f64::from(t[i]))
+            .sum::<f64>()
+            / f64::from(pixels)
+    };
+    let (with_air, without) = (opacity(&gpu_t), opacity(&airless_t));
+    eprintln!("opacity within 4° of level: {with_air:.3} with the air, {without:.3} without");
+    assert!(
+        without > 0.1 && with_air < 0.8 * without,
+        "the far clouds keep {with_air} of {without}"
+    );
+}
+
 /// No frame draws a straight horizontal step in luminance across more than half its width
 /// (`straight_horizontal_steps`) anywhere but at the horizon, where the ground and the layers
 /// seen edge-on end (within two rows of it). Three weathers looking out over the horizon: fair
