@@ -204,7 +204,8 @@ pub struct VolumetricClouds {
     /// times sooner and drops them. A ray 60° or more from the sun that ends in the sky stops at
     /// five times this (linearly more from about 32° on): away from the sun what lies beyond is
     /// diffuse light, which the light added at the stop carries. 0 marches every ray to its end
-    /// with every light step ([`VolumetricClouds::light_steps`]). Default 0.01 (`ULTRA` 0.002).
+    /// with every light step ([`VolumetricClouds::light_steps`]). Default 0.01 (`LOW` 0.03, `ULTRA`
+    /// 0.002).
     pub transmittance_cutoff: f32,
     /// Light scattered more than once: the δ-Eddington diffuse field of the sun and the sky in
     /// each cloud (validated against DISORT, `validation/README.md`). Off, the clouds get
@@ -305,10 +306,14 @@ pub struct VolumetricClouds {
 impl VolumetricClouds {
     /// The cheapest: [`VolumetricClouds::MEDIUM`]'s quarter resolution with 160 primary and 12
     /// light steps (4 for rays 60° or more from the sun), a 30 m shortest primary step, 8 haze
-    /// steps and no light shafts. Measured time and error: `docs/performance.md`.
+    /// steps, no light shafts, and rays that stop at a view transmittance of 0.03 (three times
+    /// `MEDIUM`'s: most of a ray's cost lies in the cloud past its first cloudy step, and the
+    /// light beyond the stop is added as if the medium went on). Measured time and error:
+    /// `docs/performance.md`.
     pub const LOW: Self = Self {
         primary_steps: 160,
         light_steps: 12,
+        transmittance_cutoff: 0.03,
         light_steps_away_from_sun: 0.3,
         haze_steps: 8,
         light_shafts: false,
