@@ -140,6 +140,8 @@ fn rust_constants() -> Vec<(&'static str, Vec<f64>)> {
         ),
         ("MIE_SCALE_HEIGHT_M", scalar(haze::MIE_SCALE_HEIGHT_M)),
         ("CLEAR_AIR_STEPS", scalar(CLEAR_AIR_STEPS.into())),
+        ("SUN_DISC_NO_FADE_DEG", scalar(SUN_DISC_NO_FADE_DEG)),
+        ("SUN_DISC_FULL_FADE_DEG", scalar(SUN_DISC_FULL_FADE_DEG)),
         ("SHADOW_MAP_MIN_SUN_MU", scalar(SHADOW_MAP_MIN_SUN_MU)),
         ("SHADOW_MAP_BLEND_COS", scalar(SHADOW_MAP_BLEND_COS)),
         ("SHADOW_MAP_FULL_SUN_MU", scalar(SHADOW_MAP_FULL_SUN_MU)),

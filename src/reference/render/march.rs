@@ -858,10 +858,30 @@ pub fn march_clouds(
     };
     if settings.clear_air {
         let air = clear_air_transmittance(camera_altitude_m, mu, result.distance_m, radius);
-        fade_into_air(result, air)
+        fade_into_air(result, lerp(air, 1.0, sun_disc_share(cos_sun)))
     } else {
         result
     }
+}
+
+/// Within this angle of the sun, degrees, a view ray's clouds do not fade into the air
+/// ([`sun_disc_share`]). WGSL twin: `SUN_DISC_NO_FADE_DEG`.
+pub const SUN_DISC_NO_FADE_DEG: f64 = 1.0;
+
+/// From this angle of the sun on, degrees, a view ray's clouds fade into the air in full
+/// ([`sun_disc_share`]). WGSL twin: `SUN_DISC_FULL_FADE_DEG`.
+pub const SUN_DISC_FULL_FADE_DEG: f64 = 2.0;
+
+/// How much of the clear air's fade ([`fade_into_air`]) a view ray at `cos_sun` (the cosine of
+/// its angle to the sun) is spared: 1 within [`SUN_DISC_NO_FADE_DEG`] of the sun, 0 from
+/// [`SUN_DISC_FULL_FADE_DEG`] on, linear in the cosine between. The fade shows what lies behind
+/// a cloud in place of the air's light in front of it, which holds for the sky but not for the
+/// sun's disc (0.53° across), thousands of times brighter: faded, a cloud in front of the sun
+/// would let the disc through. WGSL twin: `sun_disc_share`.
+pub fn sun_disc_share(cos_sun: f64) -> f64 {
+    let inner = SUN_DISC_NO_FADE_DEG.to_radians().cos();
+    let outer = SUN_DISC_FULL_FADE_DEG.to_radians().cos();
+    saturate((cos_sun - outer) / (inner - outer))
 }
 
 /// Steps of [`clear_air_transmittance`]'s midpoint rule. WGSL twin: `CLEAR_AIR_STEPS`.

@@ -708,7 +708,7 @@ fn march_clouds(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter:
     }
     var colour = vec4<f32>(ray.radiance, ray.transmittance);
     if clouds.clear_air != 0u {
-        colour = fade_into_air(colour, clear_air_transmittance(h, mu, distance));
+        colour = fade_into_air(colour, mix(clear_air_transmittance(h, mu, distance), 1.0, sun_disc_share(cos_sun)));
     }
     return CloudMarch(colour, distance);
 }
@@ -720,6 +720,16 @@ const CLEAR_AIR_MIE_EXTINCTION_PER_M: f32 = 4.4e-6;
 const RAYLEIGH_SCALE_HEIGHT_M: f32 = 8000.0;
 const MIE_SCALE_HEIGHT_M: f32 = 1200.0;
 const CLEAR_AIR_STEPS: u32 = 12u;
+const SUN_DISC_NO_FADE_DEG: f32 = 1.0;
+const SUN_DISC_FULL_FADE_DEG: f32 = 2.0;
+
+// 1 within SUN_DISC_NO_FADE_DEG of the sun, 0 from SUN_DISC_FULL_FADE_DEG on, linear in the
+// cosine between: the sun's disc behind a cloud is no air light. Rust: `sun_disc_share`.
+fn sun_disc_share(cos_sun: f32) -> f32 {
+    let inner = cos(radians(SUN_DISC_NO_FADE_DEG));
+    let outer = cos(radians(SUN_DISC_FULL_FADE_DEG));
+    return saturate((cos_sun - outer) / (inner - outer));
+}
 
 // Transmittance of the clear air along the view ray from the camera (altitude h, mu) to
 // distance_m, midpoints of CLEAR_AIR_STEPS steps with boundaries at distance_m (k/n)^2; 1 for

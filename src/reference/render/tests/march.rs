@@ -776,6 +776,23 @@ fn distant_clouds_fade_into_the_air_in_front_of_them() {
         )
     };
     let (far_off, far_on) = (march(&airless, direction), march(&with_air, direction));
+    // With the sun right behind the far deck the fade is off: the disc is no air light, and a
+    // faded deck would let it through.
+    let sun_behind = |settings: &MarchSettings| MarchSettings {
+        sun_direction: direction,
+        ..settings.clone()
+    };
+    let (behind_off, behind_on) = (
+        march(&sun_behind(&airless), direction),
+        march(&sun_behind(&with_air), direction),
+    );
+    assert!(
+        (behind_on.transmittance - behind_off.transmittance).abs() < 1e-12
+            && behind_on.radiance == behind_off.radiance,
+        "a deck in front of the sun keeps its opacity: {behind_on:?} against {behind_off:?}"
+    );
+    assert_eq!(sun_disc_share(1.0), 1.0);
+    assert_eq!(sun_disc_share(2.5_f64.to_radians().cos()), 0.0);
     let (near_off, near_on) = (march(&airless, UP), march(&with_air, UP));
     for (off, on, low, high) in [
         (&far_off, &far_on, 0.3, 0.8),
