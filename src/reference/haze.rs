@@ -79,6 +79,15 @@ pub const RAYLEIGH_SCALE_HEIGHT_M: f64 = 8000.0;
 /// twin: `MIE_SCALE_HEIGHT_M`.
 pub const MIE_SCALE_HEIGHT_M: f64 = 1200.0;
 
+/// Extinction of clean air at `altitude_m` above the ground (below it: the ground's), 1/m at
+/// 550 nm: the Rayleigh and Mie parts, each falling off exponentially with its scale height.
+/// WGSL twin: `clear_air_extinction`.
+pub fn clear_air_extinction(altitude_m: f64) -> f64 {
+    let z = altitude_m.max(0.0);
+    CLEAR_AIR_RAYLEIGH_EXTINCTION_PER_M * (-z / RAYLEIGH_SCALE_HEIGHT_M).exp()
+        + CLEAR_AIR_MIE_EXTINCTION_PER_M * (-z / MIE_SCALE_HEIGHT_M).exp()
+}
+
 /// The haze stops this many scale heights above the ground (`e^(−8)`: 0.03 % of its ground
 /// density).
 pub const HAZE_TOP_SCALE_HEIGHTS: f64 = 8.0;

@@ -14,6 +14,8 @@ use super::{
     point_mu_sun, profile_column, sample_source, saturate, scale, scattering_albedo, step_warp,
     sun_optical_depth, total_extinction,
 };
+use crate::reference::haze::clear_air_extinction;
+#[cfg(doc)]
 use crate::reference::haze::{
     CLEAR_AIR_MIE_EXTINCTION_PER_M, CLEAR_AIR_RAYLEIGH_EXTINCTION_PER_M, MIE_SCALE_HEIGHT_M,
     RAYLEIGH_SCALE_HEIGHT_M,
@@ -890,8 +892,9 @@ pub const CLEAR_AIR_STEPS: u32 = 12;
 /// Transmittance of the clear air at 550 nm along a view ray from a camera `camera_altitude_m`
 /// above the ground (`mu` the cosine of the ray's angle to the vertical) to `distance_m`:
 /// `e^(−τ)`, with `τ` the integral of the Rayleigh and Mie extinction of clean air
-/// ([`CLEAR_AIR_RAYLEIGH_EXTINCTION_PER_M`], [`CLEAR_AIR_MIE_EXTINCTION_PER_M`]), each falling
-/// off exponentially with altitude ([`RAYLEIGH_SCALE_HEIGHT_M`], [`MIE_SCALE_HEIGHT_M`]), by
+/// ([`clear_air_extinction`]: [`CLEAR_AIR_RAYLEIGH_EXTINCTION_PER_M`] and
+/// [`CLEAR_AIR_MIE_EXTINCTION_PER_M`], falling off with altitude over [`RAYLEIGH_SCALE_HEIGHT_M`]
+/// and [`MIE_SCALE_HEIGHT_M`]), by
 /// the midpoint rule over [`CLEAR_AIR_STEPS`] steps with boundaries at `d (k/n)²` (short near
 /// the camera, where a rising ray's air is densest) on the curved planet. 1 for a
 /// distance that is not positive and finite (no cloud). Computed in f32 on the GPU. WGSL twin:
@@ -911,10 +914,12 @@ pub fn clear_air_transmittance(
             let s0 = distance_m * (f64::from(k) / n).powi(2);
             let s1 = distance_m * (f64::from(k + 1) / n).powi(2);
             let s = 0.5 * (s0 + s1);
-            let altitude = altitude_along_ray(camera_altitude_m, mu, s, planet_radius_m).max(0.0);
-            (CLEAR_AIR_RAYLEIGH_EXTINCTION_PER_M * (-altitude / RAYLEIGH_SCALE_HEIGHT_M).exp()
-                + CLEAR_AIR_MIE_EXTINCTION_PER_M * (-altitude / MIE_SCALE_HEIGHT_M).exp())
-                * (s1 - s0)
+            clear_air_extinction(altitude_along_ray(
+                camera_altitude_m,
+                mu,
+                s,
+                planet_radius_m,
+            )) * (s1 - s0)
         })
         .sum();
     (-optical_depth).exp()
@@ -927,7 +932,9 @@ pub fn clear_air_transmittance(
 /// sky or the scene, which carries the air's light to its own distance): exact for clouds in
 /// front of a distant horizon, whose radiance is the air light of a long path (Koschmieder
 /// 1924). So distant clouds thin into the sky and the far hills as a photograph shows them.
-/// The composite `scene · T + L` does the rest. WGSL twin: `fade_into_air`.
+/// The composite `scene · T + L` does the rest. Where what lies behind is far brighter than
+/// the air, this shows it through the cloud: the sun's disc, which [`march_clouds`] spares
+/// ([`sun_disc_share`]). WGSL twin: `fade_into_air`.
 pub fn fade_into_air(result: MarchResult, air: f64) -> MarchResult {
     let air = air.clamp(0.0, 1.0);
     MarchResult {

@@ -73,7 +73,8 @@ pub struct MarchSettings {
     /// Fade the clouds into what lies behind them by the transmittance of the clear air between
     /// the camera and the clouds ([`clear_air_transmittance`](super::clear_air_transmittance)):
     /// the aerial perspective that veils distant clouds. The renderer turns it on for a scene
-    /// with Bevy's `Atmosphere` ([`march_inputs`](crate::render::view::march_inputs)), whose sky
+    /// with Bevy's `Atmosphere` and a sun or moon light
+    /// ([`march_inputs`](crate::render::view::march_inputs)), whose sky
     /// and aerial perspective are the air's light that the fade shows in place of the cloud;
     /// the validation against DISORT and Mitsuba, whose scenes have no air, leaves it off.
     /// Default false.

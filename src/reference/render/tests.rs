@@ -47,13 +47,23 @@ fn slab_settings(steps: u32, elevation_deg: f64) -> MarchSettings {
 }
 
 fn march_up(settings: &MarchSettings, layers: &[MarchLayer]) -> MarchResult {
+    march_toward(settings, layers, UP)
+}
+
+/// One ray from the camera at `settings.camera_altitude_m` (up is +y) along `direction` into
+/// the sky, sampled at step midpoints, without a shadow map.
+fn march_toward(
+    settings: &MarchSettings,
+    layers: &[MarchLayer],
+    direction: [f64; 3],
+) -> MarchResult {
     march_clouds(
         textures(),
         settings,
         layers,
         settings.camera_altitude_m,
         UP,
-        UP,
+        direction,
         f64::INFINITY,
         0.5,
         None,
@@ -643,17 +653,7 @@ fn rays_away_from_the_sun_take_fewer_light_steps() {
             light_steps_away_from_sun: away,
             ..MarchSettings::default()
         };
-        march_clouds(
-            textures(),
-            &settings,
-            &layers,
-            0.0,
-            UP,
-            direction,
-            f64::INFINITY,
-            0.5,
-            None,
-        )
+        march_toward(&settings, &layers, direction)
     };
     let sun = MarchSettings::default().sun_direction;
     assert_eq!(march(sun, 0.5), march(sun, 1.0));

@@ -745,11 +745,18 @@ fn clear_air_transmittance(h: f32, mu: f32, distance_m: f32) -> f32 {
         let u1 = f32(k + 1u) / n;
         let s0 = distance_m * u0 * u0;
         let s1 = distance_m * u1 * u1;
-        let altitude = max(altitude_along_ray(h, mu, 0.5 * (s0 + s1), clouds.planet_radius_m), 0.0);
-        optical_depth += (CLEAR_AIR_RAYLEIGH_EXTINCTION_PER_M * exp(-altitude / RAYLEIGH_SCALE_HEIGHT_M)
-            + CLEAR_AIR_MIE_EXTINCTION_PER_M * exp(-altitude / MIE_SCALE_HEIGHT_M)) * (s1 - s0);
+        let altitude = altitude_along_ray(h, mu, 0.5 * (s0 + s1), clouds.planet_radius_m);
+        optical_depth += clear_air_extinction(altitude) * (s1 - s0);
     }
     return exp(-optical_depth);
+}
+
+// Extinction of clean air at an altitude (below the ground: the ground's), 1/m. Rust:
+// `clear_air_extinction` in reference/haze.rs.
+fn clear_air_extinction(altitude_m: f32) -> f32 {
+    let z = max(altitude_m, 0.0);
+    return CLEAR_AIR_RAYLEIGH_EXTINCTION_PER_M * exp(-z / RAYLEIGH_SCALE_HEIGHT_M)
+        + CLEAR_AIR_MIE_EXTINCTION_PER_M * exp(-z / MIE_SCALE_HEIGHT_M);
 }
 
 // (L, T) seen through clear air of transmittance `air`: (air L, 1 - air (1 - T)). Rust:
