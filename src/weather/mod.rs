@@ -50,6 +50,8 @@
 
 mod error;
 mod forecast;
+#[cfg(feature = "live")]
+mod live;
 pub mod mapping;
 mod meteoblue;
 mod open_meteo;
@@ -65,6 +67,11 @@ use crate::CloudscapeSystems;
 
 pub use error::ForecastError;
 pub use forecast::{Forecast, ForecastFormat, PressureLevel, Series, Variable};
+#[cfg(feature = "live")]
+pub use live::{
+    LiveForecast, LiveForecastError, LiveForecasts, LiveStatus, OPEN_METEO_FORECAST_URL,
+    OPEN_METEO_HOURLY,
+};
 pub use mapping::{
     CloudBand, CloudBands, InputFault, LayerSlot, MAPPING_TABLE, MappedWeather, MappingRow,
     MappingWarning, WeatherLayers, WeatherMapping, layers_for_weather, map_weather,
@@ -97,22 +104,29 @@ impl Plugin for WeatherPlugin {
             .register_type::<crate::layers::CloudLayer>()
             .register_type::<crate::layers::LayerTransition>()
             .register_type::<crate::layers::HazeTransition>()
-            .init_resource::<crate::layers::HazeTransition>()
-            .add_systems(
-                Update,
+            .init_resource::<crate::layers::HazeTransition>();
+        #[cfg(feature = "live")]
+        app.init_resource::<LiveForecasts>().add_systems(
+            Update,
+            live::refresh_live_forecasts
+                .before(source::report_failed_forecasts)
+                .in_set(CloudscapeSystems::Weather),
+        );
+        app.add_systems(
+            Update,
+            (
+                (source::report_failed_forecasts, source::sample_weather)
+                    .chain()
+                    .in_set(CloudscapeSystems::Weather),
                 (
-                    (source::report_failed_forecasts, source::sample_weather)
-                        .chain()
-                        .in_set(CloudscapeSystems::Weather),
-                    (
-                        preset::report_failed_presets,
-                        preset::apply_active_preset,
-                        mapping::map_weather_onto_layers,
-                        crate::layers::run_transitions,
-                    )
-                        .chain()
-                        .in_set(CloudscapeSystems::Layers),
-                ),
-            );
+                    preset::report_failed_presets,
+                    preset::apply_active_preset,
+                    mapping::map_weather_onto_layers,
+                    crate::layers::run_transitions,
+                )
+                    .chain()
+                    .in_set(CloudscapeSystems::Layers),
+            ),
+        );
     }
 }

@@ -7,6 +7,8 @@ mod clouds;
 mod common;
 mod growth;
 mod harness;
+#[cfg(feature = "live")]
+mod live;
 mod noise;
 mod shadow;
 mod sky;
