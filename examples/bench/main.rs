@@ -64,6 +64,8 @@
 
 #[path = "../common/mod.rs"]
 mod common;
+#[cfg(feature = "live")]
+mod live;
 mod report;
 mod truth;
 
@@ -159,6 +161,12 @@ struct Args {
     /// `growth.csv`: `width,length,depth,cells,ms_per_step,ms_per_cover`).
     #[arg(long)]
     growth: bool,
+    /// Time frames across live forecast refreshes instead (crate feature `live`: `cargo run
+    /// --features live --example bench -- --live-refresh`): a loopback server answers each
+    /// download after 300 ms, the forecast refreshes every second, and each frame's time goes
+    /// to `live_refresh.csv` (`frame,ms,downloading,stored`) with the medians printed.
+    #[arg(long)]
+    live_refresh: bool,
     /// Measure only each preset against the path-traced truth: the Mitsuba cumulus scenes of
     /// `validation/mitsuba/`, marched by the CPU twin with the preset's knobs (`--set` too),
     /// into `truth.csv` (the full run measures it too).
@@ -1072,6 +1080,14 @@ fn run(args: &Args) -> Result<(), String> {
     }
     if args.growth {
         return time_growth(args);
+    }
+    if args.live_refresh {
+        #[cfg(feature = "live")]
+        return live::time_live_refresh(args);
+        #[cfg(not(feature = "live"))]
+        return Err("--live-refresh needs the crate's live feature: \
+             cargo run --features live --example bench -- --live-refresh"
+            .into());
     }
     if args.truth {
         measure_truth(args)?;

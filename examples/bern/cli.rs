@@ -34,6 +34,11 @@ pub(crate) struct BernOptions {
     pub(crate) growth: bool,
     /// `--look`: the headless shots are the look board's views ([`look::BOARD`]).
     pub(crate) look: bool,
+    /// `--live`: Open-Meteo forecasts, refreshed hourly, at the wall clock's time.
+    pub(crate) live: bool,
+    /// `--open-meteo-url`: where `--live` asks.
+    #[cfg_attr(not(feature = "live"), allow(dead_code))]
+    pub(crate) open_meteo_url: String,
 }
 
 /// The Bern demo; the flags are explained at the top of `examples/bern.rs`.
@@ -110,6 +115,19 @@ pub(crate) struct Cli {
     /// board's.
     #[arg(long, conflicts_with_all = ["frames", "photos"])]
     pub(crate) look: bool,
+    /// Live forecasts: Bern's and the far places' from Open-Meteo, downloaded now and refreshed
+    /// hourly, with the scene time the wall clock's (`--time` is ignored). Needs the crate's
+    /// `live` feature (`cargo run --features live --example bern -- --live`) and the internet.
+    #[arg(long, conflicts_with_all = ["look", "frames"])]
+    pub(crate) live: bool,
+    /// With `--live`: the server with Open-Meteo's forecast API to ask (a self-hosted
+    /// Open-Meteo, a test server).
+    #[arg(
+        long,
+        default_value = "https://api.open-meteo.com/v1/forecast",
+        requires = "live"
+    )]
+    pub(crate) open_meteo_url: String,
 }
 
 impl Cli {
@@ -117,6 +135,11 @@ impl Cli {
     pub(crate) fn options(self) -> Result<(ExampleArgs, BernOptions), String> {
         if self.frames.is_some() && !self.headless {
             return Err("--frames makes a headless time-lapse: add --headless".into());
+        }
+        if self.live && !cfg!(feature = "live") {
+            return Err("--live needs the crate's live feature: \
+                 cargo run --features live --example bern -- --live"
+                .into());
         }
         if self.look && !self.headless {
             return Err("--look renders the board headless: add --headless".into());
@@ -160,6 +183,8 @@ impl Cli {
             pitch_deg: self.pitch,
             growth: self.growth,
             look: self.look,
+            live: self.live,
+            open_meteo_url: self.open_meteo_url,
         };
         Ok((args, options))
     }

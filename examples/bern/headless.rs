@@ -2,12 +2,16 @@
 
 use super::*;
 
-/// Each time-lapse image shows `--time` plus `--step` per image.
+/// Each time-lapse image shows `--time` plus `--step` per image (`--live`: now).
 pub(crate) fn follow_headless_shots(
     progress: Res<HeadlessProgress>,
     options: Res<BernOptions>,
     mut clock: ResMut<SceneClock>,
 ) {
+    if options.live {
+        // The scene time is the wall clock's, as the forecasts are.
+        return;
+    }
     let offset_s = options.step_s.saturating_mul(i64::from(progress.shot));
     let t = options.time.saturating_add_seconds(offset_s).unix_seconds() as f64;
     if clock.unix_seconds() != t {
@@ -21,15 +25,26 @@ pub(crate) fn wait_for_forecasts(
     mut progress: ResMut<HeadlessProgress>,
     source: Res<WeatherSource>,
     server: Res<AssetServer>,
+    forecasts: Res<Assets<Forecast>>,
+    #[cfg(feature = "live")] live: Res<bevy_cloudscape::weather::LiveForecasts>,
 ) {
     if progress.ready {
         return;
     }
+    // A file has loaded or failed; a live forecast (`--live`) has arrived or failed once.
     let settled = |handle: &Handle<Forecast>| {
-        matches!(
-            server.load_state(handle.id()),
-            LoadState::Loaded | LoadState::Failed(_)
-        )
+        #[cfg(feature = "live")]
+        if live
+            .status(handle)
+            .is_some_and(|status| status.failures > 0)
+        {
+            return true;
+        }
+        forecasts.contains(handle.id())
+            || matches!(
+                server.load_state(handle.id()),
+                LoadState::Loaded | LoadState::Failed(_)
+            )
     };
     if source.near.iter().all(settled) && source.far.iter().all(|far| settled(&far.forecast)) {
         progress.ready = true;

@@ -162,8 +162,13 @@ fn main() -> AppExit {
         return AppExit::from_code(2);
     }
 
-    let mut clock = SceneClock::at(options.time);
-    clock.paused = args.headless;
+    let mut clock = if options.live {
+        // The scene time is now, as the live forecasts are.
+        SceneClock::default()
+    } else {
+        SceneClock::at(options.time)
+    };
+    clock.paused = args.headless && !options.live;
     let mut app = App::new();
     app.add_plugins((
         common::default_plugins(&args, "bevy_cloudscape: Bern"),

@@ -15,6 +15,8 @@ pub(crate) fn spawn_scene(
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
     mut media: ResMut<Assets<ScatteringMedium>>,
+    #[cfg(feature = "live")] mut live: ResMut<bevy_cloudscape::weather::LiveForecasts>,
+    #[cfg(feature = "live")] forecasts: Res<Assets<Forecast>>,
 ) {
     // The planet's centre defaults to one radius below the origin: scene y is height above sea
     // level, as for the terrain.
@@ -102,13 +104,48 @@ pub(crate) fn spawn_scene(
         ));
     }
 
-    let far: [Handle<Forecast>; 2] =
-        Viewpoint::ALL.map(|viewpoint| asset_server.load(viewpoint.far_forecast()));
-    commands.insert_resource(WeatherSource::load(
-        &asset_server,
-        NEAR_FORECAST,
-        [view.viewpoint.far_forecast().into()],
-    ));
+    let (near, far): (Handle<Forecast>, [Handle<Forecast>; 2]) = {
+        #[cfg(feature = "live")]
+        if options.live {
+            use bevy_cloudscape::weather::LiveForecast;
+            let origin = GeoOrigin::default();
+            let url = &options.open_meteo_url;
+            let near = live.add(
+                &forecasts,
+                LiveForecast::open_meteo_at(url, origin.latitude_deg, origin.longitude_deg)
+                    .named("Bern"),
+            );
+            let far = Viewpoint::ALL.map(|viewpoint| {
+                let (latitude, longitude) = viewpoint.far_place_deg();
+                live.add(
+                    &forecasts,
+                    LiveForecast::open_meteo_at(url, latitude, longitude)
+                        .named(viewpoint.far_place()),
+                )
+            });
+            (near, far)
+        } else {
+            (
+                asset_server.load(NEAR_FORECAST),
+                Viewpoint::ALL.map(|viewpoint| asset_server.load(viewpoint.far_forecast())),
+            )
+        }
+        #[cfg(not(feature = "live"))]
+        (
+            asset_server.load(NEAR_FORECAST),
+            Viewpoint::ALL.map(|viewpoint| asset_server.load(viewpoint.far_forecast())),
+        )
+    };
+    let index = Viewpoint::ALL
+        .iter()
+        .position(|v| *v == view.viewpoint)
+        .unwrap_or(0);
+    commands.insert_resource(WeatherSource {
+        near: Some(near),
+        far: vec![FarForecast {
+            forecast: far[index].clone(),
+        }],
+    });
     commands.insert_resource(FarForecasts(far));
     let layers = spawn_weather_layers(&mut commands);
     if options.growth {

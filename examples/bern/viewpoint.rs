@@ -51,6 +51,15 @@ impl Viewpoint {
         }
     }
 
+    /// The far place's latitude and longitude, degrees (for `--live`).
+    #[cfg_attr(not(feature = "live"), allow(dead_code))]
+    pub(crate) fn far_place_deg(self) -> (f64, f64) {
+        match self {
+            Self::Gurten => (47.208, 7.537),
+            Self::Bantiger => (46.806, 7.162),
+        }
+    }
+
     pub(crate) fn far_forecast(self) -> &'static str {
         match self {
             Self::Gurten => "weather/solothurn.json",

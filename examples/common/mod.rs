@@ -97,7 +97,7 @@ pub fn windowless_default_plugins() -> PluginGroupBuilder {
 /// `DefaultPlugins` set up for a window, or for a headless run that owns no window and compiles
 /// pipelines synchronously so the captured frame is complete.
 pub fn default_plugins(args: &ExampleArgs, title: &str) -> PluginGroupBuilder {
-    if args.headless {
+    let plugins = if args.headless {
         windowless_default_plugins().add(bevy::app::ScheduleRunnerPlugin::run_loop(
             std::time::Duration::ZERO,
         ))
@@ -109,7 +109,14 @@ pub fn default_plugins(args: &ExampleArgs, title: &str) -> PluginGroupBuilder {
             }),
             ..default()
         })
-    }
+    };
+    // The crate's `live` feature turns on Bevy's web asset sources, whose plugin warns that web
+    // paths are loadable; the examples load no asset from the web, only the live forecasts.
+    #[cfg(feature = "live")]
+    let plugins = plugins.set(bevy::asset::io::web::WebAssetPlugin {
+        silence_startup_warning: true,
+    });
+    plugins
 }
 
 use bevy::app::PluginGroupBuilder;

@@ -3,7 +3,7 @@
 //!
 //! Each [`LiveForecast`] in [`LiveForecasts`] is downloaded with Bevy's own web asset reader
 //! ([`WebAssetReader`], `bevy_asset`'s `http` and `https` features) on the IO task pool, so a
-//! download never holds up a frame. The reply is parsed like a forecast file
+//! download never holds up a frame. The reply is parsed there too, like a forecast file
 //! ([`Forecast::from_slice`]: meteoblue or Open-Meteo JSON) and replaces the forecast behind the
 //! feed's handle in `Assets<Forecast>`, which sends the same `AssetEvent::Modified` a
 //! hot-reloaded file does. A failed download or a bad reply (an HTTP error, a cut-off body, a
@@ -169,9 +169,9 @@ pub struct LiveStatus {
     pub downloading: bool,
 }
 
-/// A download under way.
+/// A download under way: the task downloads and parses, so the frame only stores the result.
 struct Download {
-    task: Task<Result<Vec<u8>, LiveForecastError>>,
+    task: Task<Result<Forecast, LiveForecastError>>,
     started: Duration,
 }
 
@@ -235,11 +235,21 @@ async fn download(url: String) -> Result<Vec<u8>, LiveForecastError> {
     } else {
         return Err(LiveForecastError::Scheme);
     };
-    let mut body = reader.read(Path::new(rest)).await?;
+    // The reader's messages quote the whole address: without its query, which may hold a key.
+    let redact = |error: LiveForecastError| match error {
+        LiveForecastError::Download(message) => {
+            LiveForecastError::Download(message.replace(&url, without_query(&url)))
+        }
+        other => other,
+    };
+    let mut body = reader
+        .read(Path::new(rest))
+        .await
+        .map_err(|e| redact(e.into()))?;
     let mut bytes = Vec::new();
     body.read_to_end(&mut bytes)
         .await
-        .map_err(|e| LiveForecastError::Download(e.to_string()))?;
+        .map_err(|e| redact(LiveForecastError::Download(e.to_string())))?;
     Ok(bytes)
 }
 
@@ -285,11 +295,12 @@ pub(crate) fn refresh_live_forecasts(
             }
             None => {
                 if now >= feed.next {
-                    let url = feed.live.url.clone();
-                    feed.download = Some(Download {
-                        task: IoTaskPool::get().spawn(download(url)),
-                        started: now,
+                    let live = feed.live.clone();
+                    let task = IoTaskPool::get().spawn(async move {
+                        let bytes = download(live.url.clone()).await?;
+                        parse_reply(&live, &bytes)
                     });
+                    feed.download = Some(Download { task, started: now });
                 }
                 None
             }
@@ -301,7 +312,7 @@ pub(crate) fn refresh_live_forecasts(
         // Dropping the task abandons a download that timed out.
         feed.download = None;
         feed.status.downloading = false;
-        match outcome.and_then(|bytes| parse_reply(&feed.live, &bytes)) {
+        match outcome {
             Ok(forecast) => {
                 if feed.status.failures_in_a_row > 0 {
                     info!(

@@ -42,7 +42,11 @@ struct Server {
 impl Server {
     fn start(script: Vec<Reply>) -> Self {
         let listener = TcpListener::bind("127.0.0.1:0").unwrap();
-        let url = format!("http://{}/v1/forecast", listener.local_addr().unwrap());
+        // A query with a key, which no message may show.
+        let url = format!(
+            "http://{}/v1/forecast?apikey=SECRET",
+            listener.local_addr().unwrap()
+        );
         let requests = Arc::new(AtomicU32::new(0));
         let released = Arc::new(AtomicBool::new(false));
         let script = Arc::new(Mutex::new(script));
@@ -230,6 +234,9 @@ fn a_live_forecast_refreshes_and_every_failure_keeps_the_last_good_one() {
         "an HTML page: {:?}",
         seen[3]
     );
+    for error in &seen {
+        assert!(!error.to_string().contains("SECRET"), "{error}");
+    }
     let after_failures = status(&app, &handle);
     assert_eq!(after_failures.failures_in_a_row, 4);
     assert_eq!(
