@@ -17,6 +17,7 @@
 //! | shadow | [`render::shadow`] | the cloud shadow map along the sun, applied to the sun's light on every `StandardMaterial` |
 //! | CPU queries | [`query`] | [`query::CloudQuery`]: density, "in cloud?" and sunlight at any point, for game logic |
 //! | precipitation | [`precipitation`] | rain and snow near the camera, from the layers' rain rate |
+//! | lightning | [`lightning`] | cumulonimbus layers flash: light inside the cloud and on the ground |
 //! | terrain | `terrain` | DEM readers and a terrain mesh builder (for the Bern demo and your own scenes; the default `terrain` feature) |
 //!
 //! Compatible with Bevy 0.19.
@@ -48,6 +49,7 @@ use bevy::{
 
 mod clean;
 pub mod layers;
+pub mod lightning;
 pub mod precipitation;
 pub mod query;
 #[doc(hidden)]
@@ -101,6 +103,7 @@ impl PluginGroup for CloudscapePlugin {
             .add(sky::SkyPlugin)
             .add(render::CloudRenderPlugin)
             .add(precipitation::PrecipitationPlugin)
+            .add(lightning::LightningPlugin)
     }
 }
 

@@ -81,7 +81,7 @@ impl CommonArgs {
 /// `DefaultPlugins` with no window, no winit and synchronous pipeline compilation: the base of
 /// every headless run (the examples' `--headless` and the test harness).
 pub fn windowless_default_plugins() -> PluginGroupBuilder {
-    DefaultPlugins
+    let plugins = DefaultPlugins
         .set(WindowPlugin {
             primary_window: None,
             exit_condition: ExitCondition::DontExit,
@@ -91,7 +91,14 @@ pub fn windowless_default_plugins() -> PluginGroupBuilder {
             synchronous_pipeline_compilation: true,
             ..default()
         })
-        .disable::<WinitPlugin>()
+        .disable::<WinitPlugin>();
+    // The crate's `live` feature turns on Bevy's web asset sources, whose plugin warns that web
+    // paths are loadable; the examples load no asset from the web, only the live forecasts.
+    #[cfg(feature = "live")]
+    let plugins = plugins.set(bevy::asset::io::web::WebAssetPlugin {
+        silence_startup_warning: true,
+    });
+    plugins
 }
 
 /// `DefaultPlugins` set up for a window, or for a headless run that owns no window and compiles
@@ -113,9 +120,13 @@ pub fn default_plugins(args: &ExampleArgs, title: &str) -> PluginGroupBuilder {
     // The crate's `live` feature turns on Bevy's web asset sources, whose plugin warns that web
     // paths are loadable; the examples load no asset from the web, only the live forecasts.
     #[cfg(feature = "live")]
-    let plugins = plugins.set(bevy::asset::io::web::WebAssetPlugin {
-        silence_startup_warning: true,
-    });
+    let plugins = if args.headless {
+        plugins
+    } else {
+        plugins.set(bevy::asset::io::web::WebAssetPlugin {
+            silence_startup_warning: true,
+        })
+    };
     plugins
 }
 

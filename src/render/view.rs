@@ -364,6 +364,7 @@ pub(crate) struct GpuCloudUniforms {
     shadow_map_axis_x: Vec4,
     shadow_map_axis_y: Vec4,
     shadow_map_range_m: Vec4,
+    flash: Vec4,
 }
 
 /// f32 has no infinity the shader can compare safely: "never" is this (WGSL: `FAR_AWAY`).
@@ -442,6 +443,11 @@ impl GpuCloudUniforms {
             shadow_map_range_m: map.map_or(Vec4::ZERO, |m| {
                 let [bottom, top] = m.cloud_range_m;
                 Vec4::new(bottom as f32, top as f32, m.texel_m() as f32, 0.0)
+            }),
+            flash: vec4(settings.flash_position_m).with_w(if settings.flash_intensity_cd > 0.0 {
+                settings.flash_intensity_cd as f32
+            } else {
+                0.0
             }),
         }
     }
@@ -615,6 +621,7 @@ pub(crate) fn extract_cloud_views(
     haze: Extract<Option<Res<Haze>>>,
     world: Extract<Option<Res<CloudWorld>>>,
     stars: Extract<Option<Res<crate::sky::stars::StarSky>>>,
+    lightning: Extract<Option<Res<crate::lightning::ActiveFlash>>>,
 ) {
     // The stars are drawn by the cloud composite: a clear night sky runs it for them alone.
     let stars = stars.as_deref().is_some_and(|s| s.zero_magnitude_lux > 0.0);
@@ -635,7 +642,7 @@ pub(crate) fn extract_cloud_views(
             // over a thousand pixels.
             _ => 1.0e-3,
         };
-        let (march, march_layers) = march_inputs(
+        let (mut march, march_layers) = march_inputs(
             world,
             settings,
             transform,
@@ -644,6 +651,12 @@ pub(crate) fn extract_cloud_views(
             layers.iter(),
             frame.0,
         );
+        // A lightning flash lights the clouds from within (`crate::lightning`).
+        if let Some(flash) = lightning.as_deref().and_then(|l| l.flash) {
+            let offset = flash.position.as_dvec3() - transform.translation().as_dvec3();
+            march.flash_position_m = offset.to_array();
+            march.flash_intensity_cd = f64::from(flash.intensity_cd);
+        }
         let haze = haze_settings(haze, settings, &march, &march_layers, GROUND_ALBEDO);
         // No cloud, no haze and no stars: the pass does not run.
         if !camera.is_active || (march_layers.is_empty() && !haze.is_active() && !stars) {

@@ -1806,3 +1806,75 @@ fn a_far_layer_does_not_starve_the_layer_around_the_camera() {
     );
     assert!(error <= 2.0 * near, "{error} > 2 × {near}");
 }
+
+/// A storm at night: with a flash lit (every second flashes under a rate of 60 a minute, and
+/// the paused clock stands at a whole second, the first stroke's peak) the cumulonimbus glows
+/// from within, the GPU's march matching its CPU twin, and a `LightningLight` lights the ground;
+/// with the same layer at a rate of 0 the march gets no flash and no light exists, so a sky
+/// without a storm pays nothing for lightning.
+#[test]
+fn a_lightning_flash_lights_the_storm_cloud_from_within() {
+    use bevy_cloudscape::lightning::{ActiveFlash, Lightning, LightningLight};
+    let size = UVec2::new(64, 36);
+    let (textures, mut rig) = small_rig(size);
+    let scene = Scene {
+        name: "storm_flash",
+        camera: looking(Vec3::new(0.0, 2.0, 0.0), 25.0, 0.0),
+        // Night: the sun far below the horizon.
+        sun_deg: (-30.0, 150.0),
+        layers: vec![layer(CloudKind::Cumulonimbus, 0.9)],
+        settings: settings(64),
+    };
+    rig.set_scene(&scene);
+    let light_count = |rig: &mut CloudRig| {
+        let world = rig.app.world();
+        world
+            .query_filtered::<(), With<LightningLight>>()
+            .iter(world)
+            .count()
+    };
+    {
+        let world = rig.app.world();
+        world.resource_mut::<SceneClock>().paused = true;
+        *world.resource_mut::<Lightning>() = Lightning {
+            rate_override: Some(0.0),
+            ..default()
+        };
+    }
+    let (calm_l, _) = rig.render(4);
+    let calm = rig.rendered_view.clone().expect("a rendered view");
+    assert_eq!(calm.settings.flash_intensity_cd, 0.0, "no storm, no flash");
+    assert_eq!(light_count(&mut rig), 0, "no storm, no light");
+
+    {
+        let world = rig.app.world();
+        *world.resource_mut::<Lightning>() = Lightning {
+            rate_override: Some(60.0),
+            radius_m: 3_000.0,
+            ..default()
+        };
+    }
+    let (gpu_l, gpu_t) = rig.render(4);
+    let view = rig.rendered_view.clone().expect("a rendered view");
+    let flash = rig.app.world().resource::<ActiveFlash>().flash;
+    assert!(
+        view.settings.flash_intensity_cd > 0.0 && flash.is_some(),
+        "a flash is lit: {flash:?}"
+    );
+    assert_eq!(light_count(&mut rig), 1, "the flash lights the ground");
+    let (cpu_l, cpu_t) = rig.reference(&textures);
+    save_strip(
+        &output_dir().join(format!("clouds_{}.png", scene.name)),
+        size,
+        &[&calm_l, &gpu_l, &cpu_l],
+    );
+    let (error, t_rmse, _) = twin_difference((&gpu_l, &gpu_t), (&cpu_l, &cpu_t));
+    eprintln!("flash: relative RMSE {error:.4}, RMSE of T {t_rmse:.4}");
+    assert!(error <= TWIN_RELATIVE_RMSE, "relative RMSE {error}");
+    assert!(t_rmse <= TWIN_T_RMSE, "transmittance RMSE {t_rmse}");
+    let mean = |l: &[[f32; 3]]| l.iter().map(|p| f64::from(p[1])).sum::<f64>() / l.len() as f64;
+    let (lit, dark) = (mean(&gpu_l), mean(&calm_l));
+    eprintln!("mean luminance with the flash {lit:.4}, without {dark:.6}");
+    // At night the cloud has only the night sky's light: a flash outshines it many times over.
+    assert!(lit > 10.0 * dark && lit > 0.0, "{lit} against {dark}");
+}

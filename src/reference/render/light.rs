@@ -300,6 +300,46 @@ pub fn sample_source(
     }
 }
 
+/// The nearest a sample is taken to be to a lightning flash, metres: the flash is a channel
+/// hundreds of metres long, not a point. WGSL twin: `FLASH_MIN_DISTANCE_M`.
+pub const FLASH_MIN_DISTANCE_M: f64 = 100.0;
+
+/// The distance over which a flash's light leaks out of its cloud, metres: the diffusion below
+/// holds in a cloud without end, and a storm cloud's light escapes through its sides and base
+/// within a few kilometres. WGSL twin: `FLASH_LEAK_M`.
+pub const FLASH_LEAK_M: f64 = 3_000.0;
+
+/// The light of a lightning flash ([`MarchSettings::flash_intensity_cd`] `I` at
+/// [`MarchSettings::flash_position_m`]) at a sample `position_m` (relative to the camera) in a
+/// medium of extinction `extinction` (1/m): the mean radiance, per unit scattering, of a point
+/// source in a conservatively scattering medium. Far from the source that is the diffusion
+/// approximation's fluence over 4π, `3 σ' I / (4π d)` (Ishimaru 1978, "Wave Propagation and
+/// Scattering in Random Media", the diffusion approximation); near it, the unscattered
+/// `I e^(−σ d) / d²` over 4π. The two are joined as
+/// `I / (4π d²) · (e^(−σ d) + 3 σ' d (1 − e^(−σ' d))) · e^(−d / L)`, with `d` the distance (at
+/// least [`FLASH_MIN_DISTANCE_M`]), `σ' = (1 − g) σ` the reduced extinction for the phase's
+/// asymmetry `g`, and `L` = [`FLASH_LEAK_M`] the leak out of a cloud of finite size. Far from the
+/// flash the fluence falls as `1 / d`, not `1 / d²`: the cloud carries the light. Isotropic, so
+/// it joins the diffuse light, seen through the scaled medium. 0 without a flash. WGSL twin:
+/// `flash_source`.
+pub fn flash_source(
+    settings: &MarchSettings,
+    phase: &EddingtonPhase,
+    position_m: [f64; 3],
+    extinction: f64,
+) -> f64 {
+    let intensity = settings.flash_intensity_cd;
+    if intensity.is_nan() || intensity <= 0.0 {
+        return 0.0;
+    }
+    let offset: [f64; 3] = std::array::from_fn(|c| position_m[c] - settings.flash_position_m[c]);
+    let d = dot(offset, offset).sqrt().max(FLASH_MIN_DISTANCE_M);
+    let sigma = extinction.max(0.0);
+    let reduced = (1.0 - phase.scaled_asymmetry) * (1.0 - phase.forward_fraction) * sigma;
+    let carried = (-sigma * d).exp() + 3.0 * reduced * d * (1.0 - (-reduced * d).exp());
+    intensity / (4.0 * std::f64::consts::PI * d * d) * carried * (-d / FLASH_LEAK_M).exp()
+}
+
 /// Length of the light march from a point at `altitude_m` toward a sun at `mu_sun = dot(sun,
 /// local up)`: the distance to where the ray leaves the shell of every active layer that holds
 /// the point (through the top, or through the base when the sun is low), the longest of them.

@@ -9,10 +9,10 @@ use super::ray_start_jitter;
 use super::{
     CloudColumn, CloudTextures, EddingtonPhase, LIGHT_SAMPLE_OFFSET, MarchLayer, MarchSettings,
     SHADOW_MAP_NEAR_STEPS, SHADOW_MAP_NEAR_TEXELS, SampleLights, add, altitude_along_ray, dot,
-    eddington_phase, ground_distance, higher_layers_optical_depth, horizontal_axes, is_positive,
-    layer_density, layer_is_active, lerp, mean_step_transmittance, next_cloud_interval,
-    point_mu_sun, profile_column, sample_source, saturate, scale, scattering_albedo, step_warp,
-    sun_optical_depth, total_extinction,
+    eddington_phase, flash_source, ground_distance, higher_layers_optical_depth, horizontal_axes,
+    is_positive, layer_density, layer_is_active, lerp, mean_step_transmittance,
+    next_cloud_interval, point_mu_sun, profile_column, sample_source, saturate, scale,
+    scattering_albedo, step_warp, sun_optical_depth, total_extinction,
 };
 use crate::reference::haze::clear_air_extinction;
 #[cfg(doc)]
@@ -641,7 +641,7 @@ impl Ray<'_> {
                 sun_optical_depth_at = Some(optical_depth);
             }
         }
-        let source = sample_source(
+        let mut source = sample_source(
             settings,
             &self.phase,
             scattering,
@@ -657,6 +657,12 @@ impl Ray<'_> {
                 halo_share,
             },
         );
+        let flash = flash_source(settings, &self.phase, position, extinction);
+        if flash > 0.0 {
+            for c in 0..3 {
+                source.scaled[c] += scattering * flash;
+            }
+        }
         // Hillaire 2016: ∫ T(x) S dx over the step = T · S · dt · (1 − e^(−σt dt)) / (σt dt),
         // once through the true medium and once through the scaled one.
         let scaled = 1.0 - self.phase.forward_fraction;

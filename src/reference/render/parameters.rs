@@ -6,9 +6,9 @@ use super::BROAD_WARP_PERIODS;
 #[cfg(doc)]
 use super::{
     LIGHT_STEP_SPAN_M, PRECIPITATION_ABSORPTION, SHADOW_MAP_NEAR_STEPS, SHADOW_MAP_NEAR_TEXELS,
-    coverage_height_scale, density_at, horizontal_axes, interval_steps, layer_coverage,
-    light_step_count, march_clouds, patch_fill, ray_light_steps, ray_start_jitter, sample_source,
-    shape_warp,
+    coverage_height_scale, density_at, flash_source, horizontal_axes, interval_steps,
+    layer_coverage, light_step_count, march_clouds, patch_fill, ray_light_steps, ray_start_jitter,
+    sample_source, shape_warp,
 };
 #[cfg(doc)]
 use crate::reference::shadow::ShadowMapImage;
@@ -115,6 +115,12 @@ pub struct MarchSettings {
     /// (all of them within about 32° of it, linear between: [`ray_light_steps`]). Default 1:
     /// every ray takes them all.
     pub light_steps_away_from_sun: f64,
+    /// Where a lightning flash lights the clouds from within ([`flash_source`]), relative to the
+    /// camera, metres. Default 0.
+    pub flash_position_m: [f64; 3],
+    /// The flash's luminous intensity, candela (lumens per steradian, the same units as
+    /// [`MarchSettings::sun_illuminance`] times square metres); 0 (the default): no flash.
+    pub flash_intensity_cd: f64,
 }
 
 impl Default for MarchSettings {
@@ -144,6 +150,8 @@ impl Default for MarchSettings {
             min_step_m: 0.0,
             light_steps_per_footprint: f64::INFINITY,
             light_steps_away_from_sun: 1.0,
+            flash_position_m: [0.0; 3],
+            flash_intensity_cd: 0.0,
         }
     }
 }

@@ -13,7 +13,7 @@
 }
 #import bevy_cloudscape::cloud_light::{
     LIGHT_SAMPLE_OFFSET, SHADOW_MAP_NEAR_STEPS, SHADOW_MAP_NEAR_TEXELS, SampleSource,
-    higher_layers_optical_depth, mean_step_transmittance, point_mu_sun, sample_source,
+    flash_source, higher_layers_optical_depth, mean_step_transmittance, point_mu_sun, sample_source,
     sun_optical_depth,
 }
 #import bevy_cloudscape::cloud_shadow::{map_sun_optical_depth, shadow_map_covers, shadow_map_uv}
@@ -545,7 +545,10 @@ fn light_sample(ray: ptr<function, MarchRay>, sample: QueuedSample) -> SampleSou
             optical_depth = from_map;
         }
     }
-    return sample_source(sample.scattering, sample.column_above, sample.column_below, sample.ambient, sample.ambient, sample.sky_light_bottom, optical_depth, above, mu_sun, (*ray).cos_sun, (*ray).mu, sample.halo_share);
+    var source = sample_source(sample.scattering, sample.column_above, sample.column_below, sample.ambient, sample.ambient, sample.sky_light_bottom, optical_depth, above, mu_sun, (*ray).cos_sun, (*ray).mu, sample.halo_share);
+    // A lightning flash's light, diffuse (Rust: `Ray::integrate`).
+    source.scaled += vec3<f32>(sample.scattering * flash_source(position, sample.extinction));
+    return source;
 }
 
 // How many of a ray's steps the interval [start_m, end_m] calls for: its length over the step's

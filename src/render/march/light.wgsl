@@ -77,6 +77,26 @@ struct SampleSource {
     scaled: vec3<f32>,
 }
 
+// Rust: `FLASH_MIN_DISTANCE_M`, `FLASH_LEAK_M`.
+const FLASH_MIN_DISTANCE_M: f32 = 100.0;
+const FLASH_LEAK_M: f32 = 3000.0;
+
+// The light of the lightning flash (clouds.flash) per unit scattering at `position` (relative
+// to the camera) in a medium of extinction `extinction`: the unscattered light near it, the
+// diffusion approximation's far from it, leaking out over FLASH_LEAK_M. 0 without a flash.
+// Rust: `flash_source`.
+fn flash_source(position: vec3<f32>, extinction: f32) -> f32 {
+    let intensity = clouds.flash.w;
+    if !(intensity > 0.0) {
+        return 0.0;
+    }
+    let d = max(length(position - clouds.flash.xyz), FLASH_MIN_DISTANCE_M);
+    let sigma = max(extinction, 0.0);
+    let reduced = (1.0 - clouds.scaled_asymmetry) * (1.0 - clouds.forward_fraction) * sigma;
+    let carried = exp(-sigma * d) + 3.0 * reduced * d * (1.0 - exp(-reduced * d));
+    return intensity / (4.0 * PI * d * d) * carried * exp(-d / FLASH_LEAK_M);
+}
+
 // The delta-Eddington source-function light with the single scattering split at the forward
 // peak; `sun_depth` negative when the sun does not reach the sample, `sun_above_depth` its part
 // in the layers above the sample's own; `sky_light_*` the sample's factors on the sky light;

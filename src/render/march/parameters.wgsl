@@ -85,6 +85,9 @@ struct CloudUniforms {
     // xy: (bottom, top) of the layers the map holds, m (Rust: `ShadowMapFrame::cloud_range_m`);
     // z: the side of a texel, m (`ShadowMapFrame::texel_m`).
     shadow_map_range_m: vec4<f32>,
+    // xyz: a lightning flash's position relative to the camera, m; w: its luminous intensity, cd
+    // (0: no flash). Rust: `MarchSettings::flash_position_m`, `flash_intensity_cd`.
+    flash: vec4<f32>,
 }
 
 // One cloud layer of the storage buffer, written by `GpuCloudLayer` (render/view.rs) from

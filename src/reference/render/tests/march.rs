@@ -800,3 +800,68 @@ fn distant_clouds_fade_into_the_air_in_front_of_them() {
         assert_eq!(on.distance_m, off.distance_m);
     }
 }
+
+/// A lightning flash inside a deck at night lights it from within: a camera under the deck
+/// sees it bright right under the flash and dimmer farther off, in proportion to the diffusion
+/// approximation's `1 / d` (times the leak) far from the flash, and the deck without a flash
+/// stays dark. Far from the flash the light is the diffusion approximation's
+/// (`flash_source`'s far field is `3 σ' I / (4π d)` times the leak).
+#[test]
+fn a_flash_lights_its_cloud_from_within() {
+    let layer = slab(0.02);
+    let night = MarchSettings {
+        primary_steps: 128,
+        jitter: false,
+        sun_illuminance: [0.0; 3],
+        ambient_top: [0.0; 3],
+        ambient_bottom: [0.0; 3],
+        ..MarchSettings::default()
+    };
+    let flash = MarchSettings {
+        flash_position_m: [0.0, 1_300.0, 0.0],
+        flash_intensity_cd: 1.0e9,
+        ..night.clone()
+    };
+    let dark = march_up(&night, std::slice::from_ref(&layer));
+    assert_eq!(dark.radiance, [0.0; 3], "no sun, no sky, no flash");
+    // Rays up through the deck at the flash and 1, 2 and 4 km from it (the camera moved).
+    let seen: Vec<f64> = [0.0, 1_000.0, 2_000.0, 4_000.0]
+        .iter()
+        .map(|x| {
+            let settings = MarchSettings {
+                flash_position_m: [-x, 1_300.0, 0.0],
+                ..flash.clone()
+            };
+            let result = march_up(&settings, std::slice::from_ref(&layer));
+            assert_sane(&result, "flash");
+            assert_eq!(result.radiance[0], result.radiance[2], "white");
+            result.radiance[1]
+        })
+        .collect();
+    assert!(
+        seen.windows(2).all(|w| w[0] > w[1]) && seen[3] > 0.0,
+        "falls off with distance: {seen:?}"
+    );
+    // The far field: from 2 to 4 km the seen light falls about as `e^(−d / L) / d` (the deck
+    // seen from below shows the light within a few optical depths of its base, 300 m under the
+    // flash, so the distances are those of the ray's base to the flash, within 10 %).
+    let far = |d: f64| (-d / FLASH_LEAK_M).exp() / d;
+    let d = |x: f64| (x * x + 300.0_f64.powi(2)).sqrt();
+    let expected = far(d(4_000.0)) / far(d(2_000.0));
+    let ratio = seen[3] / seen[2];
+    assert!(
+        relative_error(ratio, expected) < 0.1,
+        "4 km over 2 km: {ratio} against {expected}"
+    );
+    let phase = eddington_phase(&flash);
+    let sigma = 0.02;
+    let reduced = (1.0 - phase.scaled_asymmetry) * (1.0 - phase.forward_fraction) * sigma;
+    let at = 5_000.0;
+    let source = flash_source(&flash, &phase, [at, 1_300.0, 0.0], sigma);
+    let diffusion =
+        3.0 * reduced * 1.0e9 / (4.0 * std::f64::consts::PI * at) * (-at / FLASH_LEAK_M).exp();
+    assert!(
+        relative_error(source, diffusion) < 1e-9,
+        "{source} against {diffusion}"
+    );
+}
