@@ -9,7 +9,9 @@
 //! plus a view of cumulus from above the layer and a cirrostratus veil around the sun (its 22°
 //! halo), with the `HIGH` preset, after `N` frames of each
 //! scene (default 24), over which the temporal accumulation averages the jittered frames.
-//! `--scene NAME` renders that scene alone.
+//! `--scene NAME` renders that scene alone. `--storm` renders the storm time-lapse instead: a
+//! cumulonimbus at dusk, one image per second of scene time for six seconds, side by side in
+//! `DIR/storm_strip.png`, with its lightning (a fixed rate and seed, so the strip repeats).
 
 mod common;
 
@@ -40,6 +42,35 @@ struct Args {
     /// Render only the scene of this name.
     #[arg(long)]
     scene: Option<String>,
+    /// Render the storm time-lapse (`storm_strip.png`) instead of the scenes.
+    #[arg(long, conflicts_with = "scene")]
+    storm: bool,
+}
+
+/// The storm time-lapse's first second (a whole second: a flash of the sequence starts there
+/// at its brightest stroke) and its lightning: 20 flashes a minute within 6 km.
+const STORM_START: &str = "2021-05-07T19:30:00Z";
+const STORM_IMAGES: u32 = 6;
+
+fn storm_lightning() -> bevy_cloudscape::lightning::Lightning {
+    bevy_cloudscape::lightning::Lightning {
+        rate_override: Some(20.0),
+        radius_m: 6_000.0,
+        seed: 167,
+        ..default()
+    }
+}
+
+/// A cumulonimbus at dusk (the sun 4° below the horizon behind the camera), seen from the
+/// ground at 12° up, exposed for the dusk.
+fn storm_scene() -> Scene {
+    Scene {
+        name: "storm",
+        camera: scenes::looking(Vec3::new(0.0, 2.0, 0.0), 12.0, 0.0),
+        sun_deg: (-4.0, 180.0),
+        layers: vec![scenes::layer(CloudKind::Cumulonimbus, 0.7)],
+        settings: VolumetricClouds::HIGH,
+    }
 }
 
 fn scenes() -> Vec<Scene> {
@@ -97,6 +128,9 @@ fn run(args: &Args) -> Result<(), String> {
             .single(world)
             .map_err(|e| e.to_string())?
     };
+    if args.storm {
+        return storm_strip(&mut app, camera, sun, args.frames, size, out);
+    }
     for scene in scenes {
         scene.apply(app.world(), camera, sun);
         app.run_frames(args.frames);
@@ -105,6 +139,57 @@ fn run(args: &Args) -> Result<(), String> {
         pixels.save_png(&path, 1.0);
         println!("wrote {}", path.display());
     }
+    Ok(())
+}
+
+/// The storm time-lapse: [`STORM_IMAGES`] images one second of scene time apart from
+/// [`STORM_START`], side by side.
+fn storm_strip(
+    app: &mut Headless,
+    camera: Entity,
+    sun: Entity,
+    frames: u32,
+    size: UVec2,
+    out: &std::path::Path,
+) -> Result<(), String> {
+    let start: UtcInstant = STORM_START.parse().map_err(|e| format!("{e}"))?;
+    storm_scene().apply(app.world(), camera, sun);
+    app.world()
+        .entity_mut(camera)
+        .insert(bevy::camera::Exposure { ev100: 9.0 });
+    *app.world()
+        .resource_mut::<bevy_cloudscape::lightning::Lightning>() = storm_lightning();
+    let mut strip = Vec::new();
+    for k in 0..STORM_IMAGES {
+        let mut clock = SceneClock::at(start.saturating_add_seconds(i64::from(k)));
+        clock.paused = true;
+        app.world().insert_resource(clock);
+        app.run_frames(frames);
+        let lit = app
+            .world()
+            .resource::<bevy_cloudscape::lightning::ActiveFlash>()
+            .flash
+            .is_some();
+        println!(
+            "storm image {k}: {}",
+            if lit { "a flash" } else { "no flash" }
+        );
+        strip.push(app.read_target());
+    }
+    let images = strip.len() as u32;
+    let mut rgba = Vec::with_capacity(strip.iter().map(|p| p.rgba.len()).sum());
+    for y in 0..size.y {
+        for image in &strip {
+            rgba.extend((0..size.x).map(|x| image.at(x, y)));
+        }
+    }
+    let path = out.join("storm_strip.png");
+    common::headless::Pixels {
+        size: UVec2::new(size.x * images, size.y),
+        rgba,
+    }
+    .save_png(&path, 1.0);
+    println!("wrote {}", path.display());
     Ok(())
 }
 
