@@ -142,6 +142,8 @@ fn rust_constants() -> Vec<(&'static str, Vec<f64>)> {
         ("CLEAR_AIR_STEPS", scalar(CLEAR_AIR_STEPS.into())),
         ("SUN_DISC_NO_FADE_DEG", scalar(SUN_DISC_NO_FADE_DEG)),
         ("SUN_DISC_FULL_FADE_DEG", scalar(SUN_DISC_FULL_FADE_DEG)),
+        ("FLASH_MIN_DISTANCE_M", scalar(FLASH_MIN_DISTANCE_M)),
+        ("FLASH_LEAK_M", scalar(FLASH_LEAK_M)),
         ("SHADOW_MAP_MIN_SUN_MU", scalar(SHADOW_MAP_MIN_SUN_MU)),
         ("SHADOW_MAP_BLEND_COS", scalar(SHADOW_MAP_BLEND_COS)),
         ("SHADOW_MAP_FULL_SUN_MU", scalar(SHADOW_MAP_FULL_SUN_MU)),

@@ -326,7 +326,7 @@ fn march_far_coverage(march: &mut MarchLayer, layer: &CloudLayer, camera: DVec3)
     march.far_count = count;
 }
 
-/// Per-view uniforms, laid out as `CloudUniforms` in `parameters.wgsl` (256 bytes).
+/// Per-view uniforms, laid out as `CloudUniforms` in `parameters.wgsl` (272 bytes).
 #[derive(ShaderType, Clone, Debug, Default)]
 pub(crate) struct GpuCloudUniforms {
     planet_radius_m: f32,
@@ -838,7 +838,7 @@ mod tests {
 
     #[test]
     fn gpu_structs_match_the_shader_layout() {
-        assert_eq!(GpuCloudUniforms::min_size().get(), 256);
+        assert_eq!(GpuCloudUniforms::min_size().get(), 272);
         assert_eq!(GpuCloudLayer::min_size().get(), 256);
     }
 
