@@ -28,8 +28,8 @@ pub use solar::{
     solar_position, solar_position_unix_seconds,
 };
 pub use sun::{
-    MoonPosition, Sun, SunPosition, moon_direction_scene, sun_direction_scene, sun_or_moon_light,
-    sun_visibility,
+    MoonPosition, Sun, SunPosition, TWILIGHT_END_DEG, TWILIGHT_FULL_DEG, moon_direction_scene,
+    sun_direction_scene, sun_or_moon_light, sun_visibility, twilight_share,
 };
 
 use crate::{

@@ -23,7 +23,9 @@ pub struct Sun {
     /// above the atmosphere ([`LunarPosition::illuminance_lux`], about 0.31 lux at full moon)
     /// times `illuminance_lux / lux::RAW_SUNLIGHT`.
     pub illuminance_lux: f32,
-    /// Light the scene from the moon while the sun is down (and the moon up). Default true.
+    /// Light the scene from the moon while the sun is down (and the moon up): below the
+    /// horizon, or under Bevy's `Atmosphere` below [`TWILIGHT_END_DEG`] (twilight keeps the
+    /// sun's light until then, [`twilight_share`]). Default true.
     pub moonlight: bool,
 }
 
@@ -70,12 +72,40 @@ pub fn sun_visibility(elevation_deg: f64) -> f32 {
         as f32
 }
 
+/// The sun's elevation, degrees, down to which a scene with Bevy's `Atmosphere` keeps its
+/// full light: the end of civil twilight.
+pub const TWILIGHT_FULL_DEG: f64 = -6.0;
+
+/// The sun's elevation, degrees, from which a scene with Bevy's `Atmosphere` has no light from
+/// it: the end of nautical twilight, when the twilight sky is a few thousandths of a lux.
+pub const TWILIGHT_END_DEG: f64 = -12.0;
+
+/// The share of the sun's light that a scene with Bevy's `Atmosphere` keeps at
+/// `elevation_deg`: 1 down to [`TWILIGHT_FULL_DEG`], 0 from [`TWILIGHT_END_DEG`], linear between.
+/// The atmosphere itself takes the light off every surface and sample below the sun's horizon
+/// (its transmittance and visible-sun ratio), so a sun under the horizon still lights the air
+/// above it: the twilight glow.
+pub fn twilight_share(elevation_deg: f64) -> f32 {
+    ((elevation_deg - TWILIGHT_END_DEG) / (TWILIGHT_FULL_DEG - TWILIGHT_END_DEG)).clamp(0.0, 1.0)
+        as f32
+}
+
 /// The light of a [`Sun`] light while the sun is at `solar` and the moon at `lunar`: the unit
 /// vector toward the body in scene space and the illuminance, lux. The sun while any of its disc
-/// is up; then the moon (with [`Sun::moonlight`]) while any of its disc is up; otherwise the
-/// sun's direction and no light.
-pub fn sun_or_moon_light(sun: &Sun, solar: &SolarPosition, lunar: &LunarPosition) -> (Vec3, f32) {
-    let sun_light = sun_visibility(solar.elevation_deg);
+/// is up, or in a scene with Bevy's `Atmosphere` (`through_atmosphere`) through twilight
+/// ([`twilight_share`]); then the moon (with [`Sun::moonlight`]) while any of its disc is up;
+/// otherwise the sun's direction and no light.
+pub fn sun_or_moon_light(
+    sun: &Sun,
+    solar: &SolarPosition,
+    lunar: &LunarPosition,
+    through_atmosphere: bool,
+) -> (Vec3, f32) {
+    let sun_light = if through_atmosphere {
+        twilight_share(solar.elevation_deg)
+    } else {
+        sun_visibility(solar.elevation_deg)
+    };
     let moon_light = if sun.moonlight && sun_light <= 0.0 {
         sun_visibility(lunar.elevation_deg)
     } else {
@@ -95,7 +125,9 @@ pub(crate) fn place_sun(
     mut position: ResMut<SunPosition>,
     mut moon: ResMut<MoonPosition>,
     mut suns: Query<(&Sun, &mut Transform, &mut DirectionalLight)>,
+    atmospheres: Query<(), With<bevy::light::Atmosphere>>,
 ) {
+    let through_atmosphere = !atmospheres.is_empty();
     let origin = origin.map_or_else(GeoOrigin::default, |origin| *origin);
     let observer = Observer::from(&origin);
     let options = SolarOptions::default();
@@ -104,7 +136,7 @@ pub(crate) fn place_sun(
     position.0 = Some(solar);
     moon.0 = Some(lunar);
     for (sun, mut transform, mut light) in &mut suns {
-        let (toward, illuminance) = sun_or_moon_light(sun, &solar, &lunar);
+        let (toward, illuminance) = sun_or_moon_light(sun, &solar, &lunar, through_atmosphere);
         let up = if toward.y.abs() > 0.999 {
             Vec3::NEG_Z
         } else {
@@ -145,7 +177,7 @@ mod tests {
         let options = SolarOptions::default();
         let solar = solar_position_unix_seconds(&bern, unix_seconds, &options);
         let lunar = lunar_position_unix_seconds(&bern, unix_seconds, &options);
-        (sun_or_moon_light(sun, &solar, &lunar), solar, lunar)
+        (sun_or_moon_light(sun, &solar, &lunar, false), solar, lunar)
     }
 
     #[test]
@@ -199,5 +231,34 @@ mod tests {
         assert_eq!(sun_visibility(5.0), 1.0);
         assert!((sun_visibility(0.0) - 0.5).abs() < 1e-6);
         assert!(sun_visibility(-0.1) < sun_visibility(0.1));
+    }
+
+    #[test]
+    fn under_bevys_atmosphere_the_sun_lights_the_sky_through_twilight() {
+        assert_eq!(twilight_share(0.0), 1.0);
+        assert_eq!(twilight_share(TWILIGHT_FULL_DEG), 1.0);
+        assert!((twilight_share(-9.0) - 0.5).abs() < 1e-6);
+        assert_eq!(twilight_share(TWILIGHT_END_DEG), 0.0);
+        let sun = Sun::default();
+        let bern = Observer::from(&GeoOrigin::default());
+        let options = SolarOptions::default();
+        // Bern, 2021-05-03 19:05 UTC: the sun about 4° down.
+        let t = crate::scene::UtcInstant::from_civil(2021, 5, 3, 19, 5, 0).unwrap();
+        let solar = solar_position_unix_seconds(&bern, t.unix_seconds() as f64, &options);
+        let lunar = lunar_position_unix_seconds(&bern, t.unix_seconds() as f64, &options);
+        assert!(
+            (-5.0..-3.0).contains(&solar.elevation_deg),
+            "{}",
+            solar.elevation_deg
+        );
+        let (toward, lit) = sun_or_moon_light(&sun, &solar, &lunar, true);
+        assert_eq!(
+            lit, sun.illuminance_lux,
+            "the twilight sky keeps the whole sun"
+        );
+        assert!(toward.dot(sun_direction_scene(&solar)) > 0.999_999);
+        // Without Bevy's atmosphere nothing takes the light off the ground: it goes at sunset.
+        let (_, bare) = sun_or_moon_light(&sun, &solar, &lunar, false);
+        assert!(bare < 1.0e-3 * sun.illuminance_lux, "{bare}");
     }
 }
