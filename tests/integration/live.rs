@@ -10,12 +10,14 @@ use std::{
         atomic::{AtomicBool, AtomicU32, Ordering},
         mpsc,
     },
-    time::{Duration, Instant},
+    time::Duration,
 };
 
 use bevy::prelude::*;
 use bevy_cloudscape::prelude::*;
 use bevy_cloudscape::weather::{LiveForecast, LiveForecastError, LiveForecasts, LiveStatus};
+
+use crate::weather::{low_cover, update_until};
 
 /// What the server does with one request.
 enum Reply {
@@ -166,25 +168,6 @@ fn status(app: &App, handle: &Handle<Forecast>) -> LiveStatus {
         .status(handle)
         .cloned()
         .unwrap()
-}
-
-fn low_cover(app: &App) -> Option<f32> {
-    app.world()
-        .resource::<CurrentWeather>()
-        .near
-        .as_ref()
-        .and_then(|near| near.state.low_cover())
-}
-
-/// Updates the app until `done`; fails once `limit` passes without it (a guard against a
-/// download that never comes, not a measure of its latency).
-fn update_until(app: &mut App, limit: Duration, mut done: impl FnMut(&App) -> bool) {
-    let start = Instant::now();
-    while !done(app) {
-        assert!(start.elapsed() < limit, "not reached within {limit:?}");
-        app.update();
-        std::thread::sleep(Duration::from_millis(5));
-    }
 }
 
 #[test]

@@ -57,7 +57,8 @@ fn low_layer_coverage(app: &mut App) -> f32 {
         .expect("low layer spawned")
 }
 
-fn low_cover(app: &App) -> Option<f32> {
+/// The near place's low cloud cover in `CurrentWeather`, once sampled.
+pub(crate) fn low_cover(app: &App) -> Option<f32> {
     app.world()
         .resource::<CurrentWeather>()
         .near
@@ -66,7 +67,7 @@ fn low_cover(app: &App) -> Option<f32> {
 }
 
 /// Updates the app until `done`; fails once `limit` passes without it.
-fn update_until(app: &mut App, limit: Duration, mut done: impl FnMut(&App) -> bool) {
+pub(crate) fn update_until(app: &mut App, limit: Duration, mut done: impl FnMut(&App) -> bool) {
     let start = Instant::now();
     while !done(app) {
         assert!(start.elapsed() < limit, "not reached within {limit:?}");
