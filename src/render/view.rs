@@ -191,7 +191,15 @@ pub fn march_inputs<'a>(
             } else {
                 [1.0; 3]
             };
-            let visible = crate::sky::sun_visibility(elevation_deg) as f64;
+            // Under Bevy's atmosphere the light shines through twilight (`sky::twilight_share`)
+            // and the march takes it off each sample in the Earth's shadow
+            // (`light_march_distance`), so high cloud stays lit after sunset; without one the
+            // light goes with the sun's disc at the camera's horizon.
+            let visible = if sun.through_atmosphere {
+                1.0
+            } else {
+                f64::from(crate::sky::sun_visibility(elevation_deg))
+            };
             // The fade into what lies behind a cloud takes that for the air's light, which it
             // is where Bevy's atmosphere draws the sky and the aerial perspective; a plain
             // background (a clear colour, black) is not, and would tint far clouds with it.
@@ -888,6 +896,77 @@ mod tests {
         assert!(clear_here.is_visible());
         let (_, layers) = inputs(&clear_here, &camera);
         assert_eq!(layers.len(), 1);
+    }
+
+    /// Just after sunset under Bevy's atmosphere (the sun 1° down) a cumulus 1.5–3 km up is
+    /// still above the Earth's shadow (which reaches 1.4° below the horizon at 2 km) and is lit,
+    /// reddened; a stratus a few hundred metres up is in the shadow and gets no sun. Without an
+    /// atmosphere the light goes at sunset for every cloud.
+    #[test]
+    fn clouds_above_the_earths_shadow_keep_the_sun_after_sunset() {
+        use crate::reference::{
+            noise::NoiseRecipe,
+            render::{CloudTextures, march_clouds},
+        };
+        let textures = CloudTextures::from_recipe(&NoiseRecipe {
+            base_size: 8,
+            detail_size: 8,
+            weather_size: 16,
+            ..Default::default()
+        });
+        let below = -1.0_f32.to_radians();
+        let sun = |through_atmosphere, lux| CloudSun {
+            direction: Vec3::new(0.0, below.sin(), -below.cos()),
+            illuminance_rgb: [lux; 3],
+            through_atmosphere,
+        };
+        // Toward the sun's azimuth, 20° up: the layer's radiance.
+        let seen = |kind: CloudKind, through_atmosphere: bool, lux: f64| {
+            let layer = CloudLayer {
+                coverage: 1.0,
+                ..CloudLayer::new(kind)
+            };
+            let (march, layers) = march_inputs(
+                &CloudWorld::default(),
+                &VolumetricClouds {
+                    jitter: false,
+                    ..VolumetricClouds::default()
+                },
+                &GlobalTransform::from_xyz(0.0, 2.0, 0.0),
+                1e-3,
+                Some(&sun(through_atmosphere, lux)),
+                [(&layer, None)],
+                0,
+            );
+            let up = 20.0_f64.to_radians();
+            let result = march_clouds(
+                &textures,
+                &march,
+                &layers,
+                march.camera_altitude_m,
+                march.camera_up,
+                [0.0, up.sin(), -up.cos()],
+                f64::INFINITY,
+                0.5,
+                None,
+            );
+            (march, result.radiance)
+        };
+        let (lit, cumulus) = seen(CloudKind::Cumulus, true, 100_000.0);
+        assert!(lit.sun_illuminance[0] > lit.sun_illuminance[2], "reddened");
+        let (_, cumulus_bare) = seen(CloudKind::Cumulus, false, 100_000.0);
+        // With no sun a cloud has only the night sky's glow, about 10⁻⁴ cd/m².
+        assert!(
+            cumulus[0] > 100.0 * cumulus_bare[0],
+            "{cumulus:?} against {cumulus_bare:?}"
+        );
+        // The stratus under the atmosphere is as dark as with no sun at all.
+        let (_, stratus) = seen(CloudKind::Stratus, true, 100_000.0);
+        let (_, stratus_dark) = seen(CloudKind::Stratus, true, 0.0);
+        assert!(
+            (stratus[0] - stratus_dark[0]).abs() <= 1e-9 * stratus_dark[0],
+            "{stratus:?} against {stratus_dark:?}"
+        );
     }
 
     #[test]

@@ -76,6 +76,18 @@ pub(crate) fn haze_settings(
         if v.is_finite() { f64::from(v) } else { default }
     };
     let defaults = HazeSettings::default();
+    let mu_sun = DVec3::from_array(march.sun_direction).dot(DVec3::from_array(march.camera_up));
+    // The haze lies low, in the Earth's shadow once the sun's disc has set. Under Bevy's
+    // atmosphere (`clear_air`) the march's sun shines on through twilight for the clouds above
+    // the shadow, so the haze takes the disc's visibility here; without one the march's sun
+    // has it already.
+    let set_sun = if march.clear_air {
+        f64::from(crate::sky::sun_visibility(
+            mu_sun.clamp(-1.0, 1.0).asin().to_degrees(),
+        ))
+    } else {
+        1.0
+    };
     let scale_height = finite_or(haze.scale_height_m, defaults.scale_height_m);
     HazeSettings {
         extinction_per_m: if scale_height > 0.0 {
@@ -92,10 +104,7 @@ pub(crate) fn haze_settings(
             .haze_steps
             .saturating_mul(SHAFT_STEPS_PER_HAZE_STEP)
             .clamp(1, MAX_HAZE_STEPS),
-        sun_transmittance: mean_sun_transmittance(
-            layers,
-            DVec3::from_array(march.sun_direction).dot(DVec3::from_array(march.camera_up)),
-        ),
+        sun_transmittance: mean_sun_transmittance(layers, mu_sun) * set_sun,
         ambient_transmittance: mean_diffuse_transmittance(layers),
         sky_radiance: Some(sky_above_clouds(march, layers, ground_albedo)),
     }
