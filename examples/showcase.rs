@@ -11,7 +11,8 @@
 //! scene (default 24), over which the temporal accumulation averages the jittered frames.
 //! `--scene NAME` renders that scene alone. `--storm` renders the storm time-lapse instead: a
 //! cumulonimbus at dusk, one image per second of scene time for six seconds, side by side in
-//! `DIR/storm_strip.png`, with its lightning (a fixed rate and seed, so the strip repeats).
+//! `DIR/storm_strip.png`, with its lightning (a fixed rate and seed, so the strip repeats): the
+//! flashes light the cloud from within, and a ground stroke's channel shows below it.
 
 mod common;
 
@@ -170,9 +171,21 @@ fn storm_strip(
             .resource::<bevy_cloudscape::lightning::ActiveFlash>()
             .flash
             .is_some();
+        let bolt = {
+            let world = app.world();
+            world
+                .query_filtered::<(), With<bevy_cloudscape::lightning::LightningBolt>>()
+                .iter(world)
+                .count()
+                > 0
+        };
         println!(
             "storm image {k}: {}",
-            if lit { "a flash" } else { "no flash" }
+            match (lit, bolt) {
+                (true, true) => "a flash striking the ground",
+                (true, false) => "a flash in the cloud",
+                _ => "no flash",
+            }
         );
         strip.push(app.read_target());
     }

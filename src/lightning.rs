@@ -8,10 +8,18 @@
 //! ([`flash_source`](crate::reference::render::flash_source): the unscattered light near the
 //! flash, the diffusion approximation farther out), so it shows through the cloud as a glow,
 //! and a `PointLight` under the cloud (marked [`LightningLight`]) lights the ground while the
-//! flash lasts, dimmed by the cloud below it. Without a storm nothing is lit, no light exists and
-//! the march's flash term is skipped: lightning costs nothing.
+//! flash lasts, dimmed by the cloud below it. A ground stroke ([`Lightning::ground_strokes`])
+//! also shows its channel as a jagged emissive ribbon ([`LightningBolt`]). Without a storm
+//! nothing is lit, no light or channel exists and the march's flash term is skipped: lightning
+//! costs nothing.
 
-use bevy::prelude::*;
+use bevy::{
+    asset::RenderAssetUsages,
+    camera::visibility::NoFrustumCulling,
+    light::NotShadowCaster,
+    mesh::{Indices, PrimitiveTopology},
+    prelude::*,
+};
 
 use crate::{
     CloudscapeSystems,
@@ -59,6 +67,10 @@ pub struct Lightning {
     pub height_fraction: f32,
     /// Light the ground with a `PointLight` while a flash lasts. Default true.
     pub light_ground: bool,
+    /// Share of flashes that strike the ground, 0–1: their channel shows below the cloud as a
+    /// bright, jagged line ([`LightningBolt`]). Default 0.25 (about a quarter of flashes are
+    /// cloud-to-ground; Rakov & Uman 2003).
+    pub ground_strokes: f32,
 }
 
 impl Default for Lightning {
@@ -71,6 +83,7 @@ impl Default for Lightning {
             radius_m: 12_000.0,
             height_fraction: 0.35,
             light_ground: true,
+            ground_strokes: 0.25,
         }
     }
 }
@@ -86,6 +99,13 @@ pub struct Flash {
     /// Luminous power of the `PointLight` that lights the ground, lumens: the flash's `4π I`
     /// times the diffuse transmittance of the cloud under it.
     pub ground_lumens: f32,
+    /// Scene time the flash began, Unix seconds: it picks the channel's path.
+    pub start_s: f64,
+    /// Whether it strikes the ground ([`Lightning::ground_strokes`]), its channel then drawn
+    /// from [`Flash::position`] down to [`Flash::ground_y`].
+    pub strikes_ground: bool,
+    /// Scene height of the ground under the flash, metres.
+    pub ground_y: f32,
 }
 
 /// The lightning now (a resource written every frame in [`CloudscapeSystems::Sun`]).
@@ -101,6 +121,17 @@ pub struct ActiveFlash {
 #[derive(Component, Debug)]
 pub struct LightningLight;
 
+/// The visible channel of a ground stroke: a camera-facing ribbon along [`bolt_path`] with an
+/// emissive material, present while the stroke shines. It is scene geometry, so the clouds in
+/// front of it hide it.
+#[derive(Component, Debug)]
+pub struct LightningBolt;
+
+/// Drawn width of a ground stroke's channel, metres. The channel itself is centimetres wide;
+/// its glow and the eye's blur make it look metres wide from kilometres away. Its luminance is
+/// the flash's intensity spread over the drawn ribbon.
+pub const BOLT_WIDTH_M: f32 = 6.0;
+
 /// One flash of the random sequence ([`flash_at`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FlashEvent {
@@ -111,6 +142,9 @@ pub struct FlashEvent {
     pub offset: Vec2,
     /// Its strength, 0.5–1 of [`Lightning::peak_intensity_cd`].
     pub strength: f32,
+    /// A uniform number in [0, 1) of the flash's own: it strikes the ground when this is below
+    /// [`Lightning::ground_strokes`].
+    pub ground_draw: f32,
 }
 
 /// `SplitMix64` (Steele, Lea & Flood 2014, "Fast splittable pseudorandom number generators"): a
@@ -149,7 +183,35 @@ pub fn flash_at(seed: u64, rate_per_minute: f32, unix_seconds: f64) -> Option<Fl
         start_s: slot as f64 * FLASH_SLOT_S,
         offset: Vec2::new((radius * angle.cos()) as f32, (radius * angle.sin()) as f32),
         strength: (0.5 + 0.5 * uniform(seed, slot, 3)) as f32,
+        ground_draw: uniform(seed, slot, 4) as f32,
     })
+}
+
+/// Segments of a ground stroke's channel ([`bolt_path`]).
+pub const BOLT_SEGMENTS: usize = 40;
+
+/// Most sideways step of the channel per segment, as a share of the segment's height.
+const BOLT_WANDER: f64 = 0.6;
+
+/// The channel of a ground stroke from `top` down to the ground at `ground_y`: a random walk
+/// sideways ([`BOLT_SEGMENTS`] segments, each stepping up to [`BOLT_WANDER`] of its height
+/// aside, pulled a fifth of the way back toward the vertical each step), drawn from `seed`
+/// and the flash's start alone. `BOLT_SEGMENTS + 1` points, from `top` to the ground.
+#[must_use]
+pub fn bolt_path(seed: u64, start_s: f64, top: Vec3, ground_y: f32) -> Vec<Vec3> {
+    let slot = (start_s / FLASH_SLOT_S).floor() as i64;
+    let height = f64::from(top.y - ground_y).max(0.0);
+    let step = height / BOLT_SEGMENTS as f64;
+    let (mut x, mut z) = (0.0_f64, 0.0_f64);
+    let mut points = vec![top];
+    for k in 1..=BOLT_SEGMENTS {
+        let n = 16 + 2 * k as u64;
+        x = 0.8 * x + (2.0 * uniform(seed, slot, n) - 1.0) * BOLT_WANDER * step;
+        z = 0.8 * z + (2.0 * uniform(seed, slot, n + 1) - 1.0) * BOLT_WANDER * step;
+        let y = f64::from(top.y) - step * k as f64;
+        points.push(Vec3::new(top.x + x as f32, y as f32, top.z + z as f32));
+    }
+    points
 }
 
 /// A flash's brightness `since_start_s` seconds after it began, 0–1: each of
@@ -227,6 +289,9 @@ pub(crate) fn update_lightning(
             ),
             intensity_cd: intensity,
             ground_lumens: 4.0 * std::f32::consts::PI * intensity * below,
+            start_s: event.start_s,
+            strikes_ground: event.ground_draw < lightning.ground_strokes,
+            ground_y: ground,
         })
     });
     let next = ActiveFlash {
@@ -264,6 +329,90 @@ pub(crate) fn update_lightning(
     }
 }
 
+/// A ribbon `width` wide along `path`, each segment turned to face `camera`.
+fn ribbon_mesh(path: &[Vec3], camera: Vec3, width: f32) -> Mesh {
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    let mut indices = Vec::new();
+    for segment in path.windows(2) {
+        let (a, b) = (segment[0], segment[1]);
+        let middle = 0.5 * (a + b);
+        let toward = (camera - middle).normalize_or(Vec3::Z);
+        let side = (b - a).cross(toward).normalize_or(Vec3::X) * (0.5 * width);
+        let first = positions.len() as u32;
+        positions.extend([a - side, a + side, b - side, b + side].map(|p| p.to_array()));
+        normals.extend([toward.to_array(); 4]);
+        indices.extend([first, first + 2, first + 1, first + 1, first + 2, first + 3]);
+    }
+    let mut mesh = Mesh::new(
+        PrimitiveTopology::TriangleList,
+        RenderAssetUsages::default(),
+    );
+    mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, positions);
+    mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, normals);
+    mesh.insert_indices(Indices::U32(indices));
+    mesh
+}
+
+/// Keeps the [`LightningBolt`] on the ground stroke that shines now, facing the first camera
+/// with clouds, as bright as the stroke; despawns it when none does.
+pub(crate) fn update_bolt(
+    mut commands: Commands,
+    lightning: Res<Lightning>,
+    active: Res<ActiveFlash>,
+    cameras: Query<&GlobalTransform, With<VolumetricClouds>>,
+    meshes: Option<ResMut<Assets<Mesh>>>,
+    materials: Option<ResMut<Assets<StandardMaterial>>>,
+    bolts: Query<(Entity, &Mesh3d, &MeshMaterial3d<StandardMaterial>), With<LightningBolt>>,
+) {
+    let strike = active.flash.filter(|flash| flash.strikes_ground);
+    let camera = cameras.iter().next().map(GlobalTransform::translation);
+    let (Some(flash), Some(camera), Some(mut meshes), Some(mut materials)) =
+        (strike, camera, meshes, materials)
+    else {
+        for (entity, ..) in &bolts {
+            commands.entity(entity).despawn();
+        }
+        return;
+    };
+    let path = bolt_path(
+        lightning.seed,
+        flash.start_s,
+        flash.position,
+        flash.ground_y,
+    );
+    let length: f32 = path.windows(2).map(|w| w[0].distance(w[1])).sum();
+    let luminance = flash.intensity_cd / (BOLT_WIDTH_M * length.max(1.0));
+    let emissive = LinearRgba::rgb(0.9, 0.93, 1.0) * luminance;
+    let mesh = ribbon_mesh(&path, camera, BOLT_WIDTH_M);
+    if let Some((_, mesh_handle, material_handle)) = bolts.iter().next() {
+        if let Some(mut old) = meshes.get_mut(&mesh_handle.0) {
+            *old = mesh;
+        }
+        if let Some(mut material) = materials.get_mut(&material_handle.0) {
+            material.emissive = emissive;
+        }
+    } else {
+        commands.spawn((
+            Name::new("lightning bolt"),
+            LightningBolt,
+            Mesh3d(meshes.add(mesh)),
+            MeshMaterial3d(materials.add(StandardMaterial {
+                base_color: Color::BLACK,
+                emissive,
+                perceptual_roughness: 1.0,
+                // Seen from either side.
+                double_sided: true,
+                cull_mode: None,
+                ..default()
+            })),
+            Transform::IDENTITY,
+            NotShadowCaster,
+            NoFrustumCulling,
+        ));
+    }
+}
+
 /// Lightning: [`Lightning`], [`ActiveFlash`] and the flash's ground light; part of
 /// [`crate::CloudscapePlugin`].
 #[derive(Debug, Default, Clone, Copy)]
@@ -276,7 +425,8 @@ impl Plugin for LightningPlugin {
             .register_type::<Lightning>()
             .add_systems(
                 Update,
-                update_lightning
+                (update_lightning, update_bolt)
+                    .chain()
                     .in_set(CloudscapeSystems::Sun)
                     .after(CloudscapeSystems::Layers),
             );
@@ -328,6 +478,72 @@ mod tests {
         assert!(between < 0.15, "{between}");
         assert!((flash_envelope(0.07) - 0.55).abs() < 1e-6);
         assert!(flash_envelope(0.16) >= 0.8);
+    }
+
+    #[test]
+    fn a_ground_stroke_wanders_down_to_the_ground_the_same_each_time() {
+        let top = Vec3::new(100.0, 4_000.0, -50.0);
+        let path = bolt_path(5, 120.0, top, 500.0);
+        assert_eq!(path.len(), BOLT_SEGMENTS + 1);
+        assert_eq!(path[0], top);
+        assert!((path[BOLT_SEGMENTS].y - 500.0).abs() < 1e-2);
+        assert!(path.windows(2).all(|w| w[1].y < w[0].y), "always downward");
+        // Sideways within the walk's bound: each step at most 0.6 of a segment's 87.5 m, and
+        // the pull back keeps it within five steps (0.6 · 87.5 / 0.2 ≈ 263 m) of the vertical.
+        let aside = path
+            .iter()
+            .map(|p| Vec2::new(p.x - top.x, p.z - top.z).length())
+            .fold(0.0, f32::max);
+        assert!(aside > 1.0 && aside < 263.0 * 2f32.sqrt(), "{aside}");
+        assert_eq!(path, bolt_path(5, 120.0, top, 500.0));
+        assert_ne!(path, bolt_path(5, 121.0, top, 500.0));
+    }
+
+    #[test]
+    fn a_ground_stroke_draws_its_channel_and_only_while_it_shines() {
+        let mut app = App::new();
+        app.add_plugins((MinimalPlugins, AssetPlugin::default()))
+            .init_asset::<Mesh>()
+            .init_asset::<StandardMaterial>()
+            .init_resource::<SceneClock>()
+            .add_plugins(LightningPlugin);
+        app.world_mut().spawn((
+            Camera::default(),
+            VolumetricClouds::default(),
+            GlobalTransform::from_xyz(0.0, 2.0, 0.0),
+        ));
+        // Every second flashes, and every flash strikes the ground.
+        *app.world_mut().resource_mut::<Lightning>() = Lightning {
+            rate_override: Some(60.0),
+            ground_strokes: 1.0,
+            ..default()
+        };
+        let bolts = |app: &mut App| {
+            let world = app.world_mut();
+            world
+                .query_filtered::<(), With<LightningBolt>>()
+                .iter(world)
+                .count()
+        };
+        let at = |app: &mut App, seconds: f64| {
+            let mut clock = SceneClock::at(crate::scene::UtcInstant::from_unix_seconds(0));
+            clock.set_unix_seconds(seconds);
+            clock.paused = true;
+            app.insert_resource(clock);
+            app.update();
+            app.update();
+        };
+        at(&mut app, 1_000.0);
+        assert_eq!(bolts(&mut app), 1, "a stroke at its first peak");
+        let flash = app.world().resource::<ActiveFlash>().flash.unwrap();
+        assert!(flash.strikes_ground && flash.ground_y == 0.0);
+        // Past the flash's last stroke it is gone.
+        at(&mut app, 1_000.0 + FLASH_DURATION_S + 0.01);
+        assert_eq!(bolts(&mut app), 0, "dark between flashes");
+        // Cloud-to-cloud flashes draw none.
+        app.world_mut().resource_mut::<Lightning>().ground_strokes = 0.0;
+        at(&mut app, 1_000.0);
+        assert_eq!(bolts(&mut app), 0, "no ground stroke");
     }
 
     #[test]
