@@ -190,8 +190,9 @@ pub fn flash_at(seed: u64, rate_per_minute: f32, unix_seconds: f64) -> Option<Fl
 /// Segments of a ground stroke's channel ([`bolt_path`]).
 pub const BOLT_SEGMENTS: usize = 40;
 
-/// Most sideways step of the channel per segment, as a share of the segment's height.
-const BOLT_WANDER: f64 = 0.6;
+/// Most sideways step of a ground stroke's channel per segment ([`bolt_path`]), as a share of
+/// the segment's height.
+pub const BOLT_WANDER: f64 = 0.6;
 
 /// The channel of a ground stroke from `top` down to the ground at `ground_y`: a random walk
 /// sideways ([`BOLT_SEGMENTS`] segments, each stepping up to [`BOLT_WANDER`] of its height

@@ -46,10 +46,10 @@ pub struct LiveForecast {
     /// The place's name, which the forecast and the messages carry when the reply names none.
     /// Default: the address without its query.
     pub name: String,
-    /// Time between downloads once one succeeded. Default one hour.
+    /// Time between downloads once one succeeded, at least [`MIN_REFRESH`]. Default one hour.
     pub refresh: Duration,
-    /// Wait before the first retry after a failed download; each further failure doubles it, up
-    /// to [`LiveForecast::refresh`]. Default one minute.
+    /// Wait before the first retry after a failed download, at least [`MIN_REFRESH`]; each
+    /// further failure doubles it, up to [`LiveForecast::refresh`]. Default one minute.
     pub retry: Duration,
     /// A download that has not finished after this long counts as failed (and is abandoned).
     /// Default 60 s.
@@ -113,6 +113,10 @@ impl LiveForecast {
         self
     }
 }
+
+/// The shortest [`LiveForecast::refresh`] and [`LiveForecast::retry`] it keeps: shorter ones
+/// would ask the server many times a second. A shorter one is raised to this with a warning.
+pub const MIN_REFRESH: Duration = Duration::from_secs(1);
 
 /// The address without its query (which may hold an API key).
 fn without_query(url: &str) -> &str {
@@ -197,6 +201,13 @@ impl LiveForecasts {
     /// Starts fetching `live` (its first download in the next frame) and returns the handle its
     /// forecast will be stored under; the handle holds no forecast until a download succeeds.
     pub fn add(&mut self, forecasts: &Assets<Forecast>, live: LiveForecast) -> Handle<Forecast> {
+        if live.refresh < MIN_REFRESH || live.retry < MIN_REFRESH {
+            warn!(
+                "bevy_cloudscape: the live forecast {} refreshes every {:?} and retries after \
+                 {:?}; each is at least {MIN_REFRESH:?}",
+                live.name, live.refresh, live.retry
+            );
+        }
         let handle = forecasts.reserve_handle();
         self.feeds.push(Feed {
             live,
@@ -267,7 +278,11 @@ fn parse_reply(live: &LiveForecast, bytes: &[u8]) -> Result<Forecast, LiveForeca
 /// doubled for each failure after the first, at most [`LiveForecast::refresh`].
 fn retry_delay(live: &LiveForecast, failures_in_a_row: u32) -> Duration {
     let doubling = 2u32.saturating_pow(failures_in_a_row.saturating_sub(1).min(16));
-    live.retry.saturating_mul(doubling).min(live.refresh)
+    let refresh = live.refresh.max(MIN_REFRESH);
+    live.retry
+        .max(MIN_REFRESH)
+        .saturating_mul(doubling)
+        .min(refresh)
 }
 
 /// Starts each live forecast's download when it is due, and files the finished ones: a good
@@ -329,7 +344,7 @@ pub(crate) fn refresh_live_forecasts(
                 feed.status.downloads += 1;
                 feed.status.failures_in_a_row = 0;
                 feed.status.last_error = None;
-                feed.next = now + feed.live.refresh;
+                feed.next = now + feed.live.refresh.max(MIN_REFRESH);
             }
             Err(error) => {
                 feed.status.failures += 1;
@@ -361,6 +376,12 @@ mod tests {
         let delays: Vec<u64> = (1..=8).map(|n| retry_delay(&live, n).as_secs()).collect();
         assert_eq!(delays, [60, 120, 240, 480, 960, 1920, 3600, 3600]);
         assert_eq!(retry_delay(&live, u32::MAX), live.refresh);
+        // A zero retry or refresh would ask the server every frame: both are at least a second.
+        let eager = live
+            .with_refresh(Duration::ZERO)
+            .with_retry(Duration::ZERO, Duration::ZERO);
+        assert_eq!(retry_delay(&eager, 1), MIN_REFRESH);
+        assert_eq!(retry_delay(&eager, 5), MIN_REFRESH);
     }
 
     #[test]

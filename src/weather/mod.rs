@@ -69,8 +69,8 @@ pub use error::ForecastError;
 pub use forecast::{Forecast, ForecastFormat, PressureLevel, Series, Variable};
 #[cfg(feature = "live")]
 pub use live::{
-    LiveForecast, LiveForecastError, LiveForecasts, LiveStatus, OPEN_METEO_FORECAST_URL,
-    OPEN_METEO_HOURLY,
+    LiveForecast, LiveForecastError, LiveForecasts, LiveStatus, MIN_REFRESH,
+    OPEN_METEO_FORECAST_URL, OPEN_METEO_HOURLY,
 };
 pub use mapping::{
     CloudBand, CloudBands, InputFault, LayerSlot, MAPPING_TABLE, MappedWeather, MappingRow,

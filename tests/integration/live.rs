@@ -15,7 +15,9 @@ use std::{
 
 use bevy::prelude::*;
 use bevy_cloudscape::prelude::*;
-use bevy_cloudscape::weather::{LiveForecast, LiveForecastError, LiveForecasts, LiveStatus};
+use bevy_cloudscape::weather::{
+    LiveForecast, LiveForecastError, LiveForecasts, LiveStatus, MIN_REFRESH,
+};
 
 use crate::weather::{low_cover, update_until};
 
@@ -136,8 +138,8 @@ fn open_meteo_with_low_clouds(percent: f64) -> String {
 }
 
 /// A headless app with the cloud plugins at a time inside the bundled forecast, fed by a live
-/// forecast from `server` (retries after 20 ms, refreshes every `refresh`).
-fn live_app(server: &Server, refresh: Duration, timeout: Duration) -> (App, Handle<Forecast>) {
+/// forecast from `server` that refreshes and retries after `MIN_REFRESH`, a second.
+fn live_app(server: &Server, timeout: Duration) -> (App, Handle<Forecast>) {
     let mut app = App::new();
     app.add_plugins((
         MinimalPlugins,
@@ -149,8 +151,8 @@ fn live_app(server: &Server, refresh: Duration, timeout: Duration) -> (App, Hand
     app.cleanup();
     let live = LiveForecast::url(&server.url)
         .named("Bern (test server)")
-        .with_refresh(refresh)
-        .with_retry(Duration::from_millis(20), timeout);
+        .with_refresh(MIN_REFRESH)
+        .with_retry(MIN_REFRESH, timeout);
     let world = app.world_mut();
     let handle = world.resource_scope(|world, mut feeds: Mut<LiveForecasts>| {
         feeds.add(world.resource::<Assets<Forecast>>(), live)
@@ -180,8 +182,9 @@ fn a_live_forecast_refreshes_and_every_failure_keeps_the_last_good_one() {
         Reply::Html,
         Reply::Json(open_meteo_with_low_clouds(60.0)),
     ]);
-    // Refreshed 50 ms after a good download; the back-off from 20 ms reaches that quickly.
-    let (mut app, handle) = live_app(&server, Duration::from_millis(50), Duration::from_secs(5));
+    // Refreshed a second after a good download, retried a second after a failure (the least
+    // either may be).
+    let (mut app, handle) = live_app(&server, Duration::from_secs(5));
     let limit = Duration::from_secs(20);
 
     update_until(&mut app, limit, |app| low_cover(app).is_some());
@@ -244,7 +247,7 @@ fn a_held_reply_does_not_hold_up_the_frames_and_a_timeout_keeps_the_last_good() 
         Reply::Held(stuck, open_meteo_with_low_clouds(80.0)),
         Reply::Json(open_meteo_with_low_clouds(50.0)),
     ]);
-    let (mut app, handle) = live_app(&server, Duration::from_millis(10), Duration::from_secs(1));
+    let (mut app, handle) = live_app(&server, Duration::from_secs(1));
 
     // While the server holds its reply, frames go on: a download on the main thread would not
     // return from the first of these updates until the server lets go (after 10 s at most).
