@@ -88,6 +88,57 @@ impl Default for Lightning {
     }
 }
 
+impl Lightning {
+    /// A copy with every number in its range: a NaN or infinite field takes its default, the
+    /// rest are clamped (rates, intensity and radius at least 0, shares to 0–1). Returns the
+    /// copy and the names of the fields that were not finite.
+    #[must_use]
+    pub fn sanitized(&self) -> (Self, Vec<&'static str>) {
+        let defaults = Self::default();
+        let mut bad = Vec::new();
+        let mut finite = |name, value: f32, default: f32| {
+            if value.is_finite() {
+                value
+            } else {
+                bad.push(name);
+                default
+            }
+        };
+        let clean = Self {
+            flashes_per_minute: finite(
+                "flashes_per_minute",
+                self.flashes_per_minute,
+                defaults.flashes_per_minute,
+            )
+            .max(0.0),
+            rate_override: self
+                .rate_override
+                .map(|rate| finite("rate_override", rate, 0.0).max(0.0)),
+            peak_intensity_cd: finite(
+                "peak_intensity_cd",
+                self.peak_intensity_cd,
+                defaults.peak_intensity_cd,
+            )
+            .max(0.0),
+            radius_m: finite("radius_m", self.radius_m, defaults.radius_m).max(0.0),
+            height_fraction: finite(
+                "height_fraction",
+                self.height_fraction,
+                defaults.height_fraction,
+            )
+            .clamp(0.0, 1.0),
+            ground_strokes: finite(
+                "ground_strokes",
+                self.ground_strokes,
+                defaults.ground_strokes,
+            )
+            .clamp(0.0, 1.0),
+            ..self.clone()
+        };
+        (clean, bad)
+    }
+}
+
 /// A flash lit now.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Flash {
@@ -255,7 +306,16 @@ pub(crate) fn update_lightning(
     cameras: Query<&GlobalTransform, With<VolumetricClouds>>,
     mut active: ResMut<ActiveFlash>,
     mut lights: Query<(Entity, &mut Transform, &mut PointLight), With<LightningLight>>,
+    mut warned: Local<Vec<&'static str>>,
 ) {
+    // A field that is not a number takes its default, with one warning while it stays bad.
+    let (lightning, bad) = lightning.sanitized();
+    for field in &bad {
+        if !warned.contains(field) {
+            warn!("bevy_cloudscape: Lightning::{field} is not a finite number; using its default");
+        }
+    }
+    *warned = bad;
     let rate = storm_rate(&lightning, layers.iter());
     let t = clock.unix_seconds();
     let storm = layers
@@ -545,6 +605,30 @@ mod tests {
         app.world_mut().resource_mut::<Lightning>().ground_strokes = 0.0;
         at(&mut app, 1_000.0);
         assert_eq!(bolts(&mut app), 0, "no ground stroke");
+    }
+
+    #[test]
+    fn bad_numbers_take_their_defaults_and_are_named() {
+        let bad = Lightning {
+            flashes_per_minute: f32::NAN,
+            rate_override: Some(f32::INFINITY),
+            peak_intensity_cd: -5.0,
+            height_fraction: f32::NAN,
+            ground_strokes: 3.0,
+            ..default()
+        };
+        let (clean, named) = bad.sanitized();
+        assert_eq!(
+            named,
+            ["flashes_per_minute", "rate_override", "height_fraction"]
+        );
+        let defaults = Lightning::default();
+        assert_eq!(clean.flashes_per_minute, defaults.flashes_per_minute);
+        assert_eq!(clean.rate_override, Some(0.0));
+        assert_eq!(clean.peak_intensity_cd, 0.0);
+        assert_eq!(clean.height_fraction, defaults.height_fraction);
+        assert_eq!(clean.ground_strokes, 1.0);
+        assert_eq!(defaults.sanitized(), (defaults.clone(), Vec::new()));
     }
 
     #[test]
