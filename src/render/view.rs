@@ -792,6 +792,18 @@ mod tests {
     use crate::layers::{CloudKind, FarCoverage};
     use crate::reference::render::layer_coverage;
 
+    /// Noise small enough for a debug build to make in a blink, for the CPU marches here.
+    fn small_textures() -> crate::reference::render::CloudTextures {
+        crate::reference::render::CloudTextures::from_recipe(
+            &crate::reference::noise::NoiseRecipe {
+                base_size: 8,
+                detail_size: 8,
+                weather_size: 16,
+                ..Default::default()
+            },
+        )
+    }
+
     /// The march inputs of `layer` alone for a default camera setup at `camera`, no sun.
     fn inputs(layer: &CloudLayer, camera: &GlobalTransform) -> (MarchSettings, Vec<MarchLayer>) {
         march_inputs(
@@ -904,16 +916,8 @@ mod tests {
     /// atmosphere the light goes at sunset for every cloud.
     #[test]
     fn clouds_above_the_earths_shadow_keep_the_sun_after_sunset() {
-        use crate::reference::{
-            noise::NoiseRecipe,
-            render::{CloudTextures, march_clouds},
-        };
-        let textures = CloudTextures::from_recipe(&NoiseRecipe {
-            base_size: 8,
-            detail_size: 8,
-            weather_size: 16,
-            ..Default::default()
-        });
+        use crate::reference::render::march_clouds;
+        let textures = small_textures();
         let below = -1.0_f32.to_radians();
         let sun = |through_atmosphere, lux| CloudSun {
             direction: Vec3::new(0.0, below.sin(), -below.cos()),
@@ -971,10 +975,7 @@ mod tests {
 
     #[test]
     fn rain_falls_as_shafts_under_raining_layers() {
-        use crate::reference::{
-            noise::NoiseRecipe,
-            render::{CloudTextures, march_clouds},
-        };
+        use crate::reference::render::march_clouds;
         let layer = CloudLayer {
             coverage: 1.0,
             rain_mm_per_h: 1.0,
@@ -993,12 +994,7 @@ mod tests {
             clear_air: false,
             ..march
         };
-        let textures = CloudTextures::from_recipe(&NoiseRecipe {
-            base_size: 8,
-            detail_size: 8,
-            weather_size: 16,
-            ..Default::default()
-        });
+        let textures = small_textures();
         let result = march_clouds(
             &textures,
             &march,
