@@ -10,6 +10,8 @@
 //! of the sun's SPA (for the Earth's frame) and about 200 more trigonometric evaluations (the
 //! 180 terms of Tables 47.A and 47.B and the conversions); compute it once per frame at most.
 
+pub mod disc;
+
 use super::solar::{Observer, SolarOptions, earth_frame, julian_day, topocentric, wrap_degrees};
 use crate::scene::UtcInstant;
 

@@ -27,8 +27,11 @@ use bevy::{
 };
 
 use super::{
-    Sun, SunPosition,
+    MoonPosition, Sun, SunPosition,
+    moon::disc::MoonDisc,
+    moon_direction_scene,
     solar::{SolarOptions, earth_frame, julian_day},
+    sun_direction_scene,
 };
 use crate::scene::{GeoOrigin, SceneClock};
 
@@ -88,10 +91,11 @@ impl Default for StarField {
     }
 }
 
-/// What the renderer needs of the stars this frame, written from [`StarField`], the
-/// [`GeoOrigin`], the [`SceneClock`] and the sun (render world: extracted as it is). The stars
-/// are off (`zero_magnitude_lux` 0) without a [`Sun`] light, or while the sun is above
-/// [`STARS_MAX_SUN_ELEVATION_DEG`].
+/// What the renderer needs of the stars and the moon's disc this frame, written from
+/// [`StarField`], the [`GeoOrigin`], the [`SceneClock`], the sun and the moon (render world:
+/// extracted as it is). The stars are off (`zero_magnitude_lux` 0) without a [`Sun`] light, or
+/// while the sun is above [`STARS_MAX_SUN_ELEVATION_DEG`]; the moon's disc is off
+/// (`moon` `None`) without a [`Sun`] light with [`Sun::moon_disc`].
 #[derive(Resource, ExtractResource, Debug, Clone, Copy, PartialEq, Default)]
 pub struct StarSky {
     /// Celestial (equatorial, of the date) coordinates from scene coordinates.
@@ -101,6 +105,8 @@ pub struct StarSky {
     pub zero_magnitude_lux: f32,
     /// [`StarField::seed`].
     pub seed: u32,
+    /// The moon's disc (`None`: not drawn).
+    pub moon: Option<MoonDisc>,
 }
 
 /// Celestial coordinates from East-North-Up at latitude `latitude_deg` and local apparent
@@ -136,7 +142,8 @@ pub(crate) fn place_stars(
     origin: Option<Res<GeoOrigin>>,
     field: Option<Res<StarField>>,
     sun: Res<SunPosition>,
-    suns: Query<(), With<Sun>>,
+    moon: Res<MoonPosition>,
+    suns: Query<&Sun>,
     mut sky: ResMut<StarSky>,
 ) {
     let origin = origin.map_or_else(GeoOrigin::default, |o| *o);
@@ -156,10 +163,28 @@ pub(crate) fn place_stars(
         celestial_from_scene: celestial_from_scene(&origin, clock.unix_seconds()).as_mat3(),
         zero_magnitude_lux: zero,
         seed: field.seed,
+        moon: moon_disc(&sun, &moon, &suns),
     };
     if *sky != next {
         *sky = next;
     }
+}
+
+/// The moon's disc for the first [`Sun`] light that draws it ([`Sun::moon_disc`]), with that
+/// light's scale on the moon's illuminance ([`Sun::illuminance_lux`]).
+fn moon_disc(sun: &SunPosition, moon: &MoonPosition, suns: &Query<&Sun>) -> Option<MoonDisc> {
+    let light = suns.iter().find(|light| light.moon_disc)?;
+    let (solar, lunar) = (sun.0?, moon.0?);
+    let scale =
+        f64::from(light.illuminance_lux) / f64::from(bevy::light::light_consts::lux::RAW_SUNLIGHT);
+    let disc = MoonDisc::new(
+        &lunar,
+        &solar,
+        moon_direction_scene(&lunar).as_dvec3().normalize(),
+        sun_direction_scene(&solar).as_dvec3().normalize(),
+        lunar.illuminance_lux() * scale,
+    );
+    (disc.lux_per_sr > 0.0).then_some(disc)
 }
 
 /// Illuminance of a magnitude-0 star outside the atmosphere, lux.
@@ -456,6 +481,7 @@ mod tests {
                 &SolarOptions::default(),
             ))));
             world.init_resource::<StarSky>();
+            world.init_resource::<MoonPosition>();
             if with_sun {
                 world.spawn(Sun::default());
             }

@@ -1,7 +1,10 @@
 //! Places the scene's sun where it really is for the scene's place and time, and the moon once
 //! the sun has set.
 
-use bevy::{light::light_consts::lux, prelude::*};
+use bevy::{
+    light::{SunDisk, light_consts::lux},
+    prelude::*,
+};
 
 use super::{
     moon::{LunarPosition, lunar_position_unix_seconds},
@@ -27,6 +30,12 @@ pub struct Sun {
     /// horizon, or under Bevy's `Atmosphere` below [`TWILIGHT_END_DEG`] (twilight keeps the
     /// sun's light until then, [`twilight_share`]). Default true.
     pub moonlight: bool,
+    /// Draw the moon's disc with its phase, by day and by night, wherever it is above the
+    /// horizon ([`crate::sky::moon::disc`]; the cloud composite draws it behind the clouds, so
+    /// only a camera with [`VolumetricClouds`](crate::render::VolumetricClouds) shows it). While
+    /// the light is the moon's, its `SunDisk` intensity is 0 meanwhile, so Bevy's atmosphere
+    /// draws no round disc of its own, and it is given back when the sun returns. Default true.
+    pub moon_disc: bool,
 }
 
 impl Default for Sun {
@@ -34,9 +43,15 @@ impl Default for Sun {
         Self {
             illuminance_lux: lux::RAW_SUNLIGHT,
             moonlight: true,
+            moon_disc: true,
         }
     }
 }
+
+/// The `SunDisk` a [`Sun`] light had before it became the moon's light (its angular size and
+/// intensity), given back when the sun returns (`None`: it had none).
+#[derive(Component, Debug, Clone, Copy)]
+pub(crate) struct DaySunDisk(Option<(f32, f32)>);
 
 /// Where the sun is now, updated every frame in [`crate::CloudscapeSystems::Sun`].
 #[derive(Resource, Debug, Clone, Copy, Default)]
@@ -101,6 +116,17 @@ pub fn sun_or_moon_light(
     lunar: &LunarPosition,
     through_atmosphere: bool,
 ) -> (Vec3, f32) {
+    let (toward, illuminance, _) = light_source(sun, solar, lunar, through_atmosphere);
+    (toward, illuminance)
+}
+
+/// [`sun_or_moon_light`], and whether the light is the moon's.
+fn light_source(
+    sun: &Sun,
+    solar: &SolarPosition,
+    lunar: &LunarPosition,
+    through_atmosphere: bool,
+) -> (Vec3, f32, bool) {
     let sun_light = if through_atmosphere {
         twilight_share(solar.elevation_deg)
     } else {
@@ -114,9 +140,13 @@ pub fn sun_or_moon_light(
     if moon_light > 0.0 {
         let scale = f64::from(sun.illuminance_lux) / f64::from(lux::RAW_SUNLIGHT);
         let illuminance = lunar.illuminance_lux() * scale * f64::from(moon_light);
-        return (moon_direction_scene(lunar), illuminance as f32);
+        return (moon_direction_scene(lunar), illuminance as f32, true);
     }
-    (sun_direction_scene(solar), sun.illuminance_lux * sun_light)
+    (
+        sun_direction_scene(solar),
+        sun.illuminance_lux * sun_light,
+        false,
+    )
 }
 
 pub(crate) fn place_sun(
@@ -124,8 +154,16 @@ pub(crate) fn place_sun(
     origin: Option<Res<GeoOrigin>>,
     mut position: ResMut<SunPosition>,
     mut moon: ResMut<MoonPosition>,
-    mut suns: Query<(&Sun, &mut Transform, &mut DirectionalLight)>,
+    mut suns: Query<(
+        Entity,
+        &Sun,
+        &mut Transform,
+        &mut DirectionalLight,
+        Option<&SunDisk>,
+        Option<&DaySunDisk>,
+    )>,
     atmospheres: Query<(), With<bevy::light::Atmosphere>>,
+    mut commands: Commands,
 ) {
     let through_atmosphere = !atmospheres.is_empty();
     let origin = origin.map_or_else(GeoOrigin::default, |origin| *origin);
@@ -135,8 +173,15 @@ pub(crate) fn place_sun(
     let lunar = lunar_position_unix_seconds(&observer, clock.unix_seconds(), &options);
     position.0 = Some(solar);
     moon.0 = Some(lunar);
-    for (sun, mut transform, mut light) in &mut suns {
-        let (toward, illuminance) = sun_or_moon_light(sun, &solar, &lunar, through_atmosphere);
+    for (entity, sun, mut transform, mut light, disk, day_disk) in &mut suns {
+        let (toward, illuminance, moonlit) = light_source(sun, &solar, &lunar, through_atmosphere);
+        hide_disk_for_the_moon(
+            &mut commands,
+            entity,
+            moonlit && sun.moon_disc,
+            disk,
+            day_disk,
+        );
         let up = if toward.y.abs() > 0.999 {
             Vec3::NEG_Z
         } else {
@@ -150,9 +195,83 @@ pub(crate) fn place_sun(
     }
 }
 
+/// While `hide` (the light is the moon's and the crate draws its disc), sets the light's
+/// `SunDisk` intensity to 0, keeping the one it had in [`DaySunDisk`]; otherwise gives that back.
+fn hide_disk_for_the_moon(
+    commands: &mut Commands,
+    entity: Entity,
+    hide: bool,
+    disk: Option<&SunDisk>,
+    day_disk: Option<&DaySunDisk>,
+) {
+    match (hide, day_disk) {
+        (true, None) => {
+            let kept = disk.map(|disk| (disk.angular_size, disk.intensity));
+            let hidden = SunDisk {
+                angular_size: kept.map_or(SunDisk::EARTH.angular_size, |(size, _)| size),
+                intensity: 0.0,
+            };
+            commands.entity(entity).insert((hidden, DaySunDisk(kept)));
+        }
+        (false, Some(DaySunDisk(kept))) => {
+            let mut light = commands.entity(entity);
+            light.remove::<DaySunDisk>();
+            match *kept {
+                Some((angular_size, intensity)) => light.insert(SunDisk {
+                    angular_size,
+                    intensity,
+                }),
+                None => light.remove::<SunDisk>(),
+            };
+        }
+        _ => {}
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// While the moon lights the scene (and the crate draws its phase), the light's `SunDisk`
+    /// draws nothing, and the disc it had comes back by day; a light without one gets none back.
+    #[test]
+    fn the_moon_light_hides_bevys_round_disc() {
+        use bevy::ecs::system::RunSystemOnce;
+        let mut world = World::new();
+        world.init_resource::<SunPosition>();
+        world.init_resource::<MoonPosition>();
+        let custom = world
+            .spawn((
+                DirectionalLight::default(),
+                Sun::default(),
+                SunDisk {
+                    angular_size: 0.02,
+                    intensity: 2.0,
+                },
+            ))
+            .id();
+        let bare = world
+            .spawn((DirectionalLight::default(), Sun::default()))
+            .id();
+        let mut at = |time: &str| {
+            let instant: crate::scene::UtcInstant = time.parse().unwrap();
+            world.insert_resource(SceneClock::at(instant));
+            world.run_system_once(place_sun).unwrap();
+            let disk = |entity| {
+                world
+                    .get::<SunDisk>(entity)
+                    .map(|disk| (disk.angular_size, disk.intensity))
+            };
+            (disk(custom), disk(bare))
+        };
+        // The first-quarter moon 36° up at 21:00 UTC on 2021-05-19, the sun 14° down.
+        assert_eq!(
+            at("2021-05-19T21:00:00Z"),
+            (Some((0.02, 0.0)), Some((SunDisk::EARTH.angular_size, 0.0)))
+        );
+        // The next noon: as before.
+        assert_eq!(at("2021-05-20T11:00:00Z"), (Some((0.02, 2.0)), None));
+    }
 
     #[test]
     fn direction_follows_azimuth_and_elevation() {

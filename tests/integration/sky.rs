@@ -201,3 +201,119 @@ fn stars_shine_at_night_where_the_twin_puts_them_and_clouds_hide_them() {
         "the deck hides the stars: {hidden} against {peak_twin}"
     );
 }
+
+/// The moon's disc: the first-quarter moon over Bern shows as its CPU twin draws it (lit on the
+/// sun's side, dark on the other, as bright as the moon's illuminance makes it), and nothing is
+/// drawn with `Sun::moon_disc` off. (That Bevy's own round disc is hidden meanwhile is
+/// `the_moon_light_hides_bevys_round_disc` in `src/sky/sun.rs`.)
+#[test]
+fn the_moon_shows_its_phase_where_the_twin_draws_it() {
+    use bevy::{camera::Exposure, math::DVec3};
+    use bevy_cloudscape::{
+        prelude::*,
+        scene::{GeoOrigin, SceneClock, UtcInstant},
+        sky::{
+            Observer, SolarOptions, Sun, lunar_position_unix_seconds, moon::disc::MoonDisc,
+            moon_direction_scene, solar_position_unix_seconds, sun_direction_scene,
+        },
+    };
+    let size = UVec2::new(160, 90);
+    let fov_deg = 3.0f64;
+    let ev100 = 10.0;
+    // 2021-05-19 21:00 UTC: the first-quarter moon 36° up in the south-west of Bern, the sun
+    // 14° below the horizon.
+    let instant: UtcInstant = "2021-05-19T21:00:00Z".parse().unwrap();
+    let t = instant.unix_seconds() as f64;
+    let observer = Observer::from(&GeoOrigin::default());
+    let lunar = lunar_position_unix_seconds(&observer, t, &SolarOptions::default());
+    let solar = solar_position_unix_seconds(&observer, t, &SolarOptions::default());
+    let toward_moon = moon_direction_scene(&lunar);
+    assert!(lunar.elevation_deg > 20.0 && solar.elevation_deg < -12.0);
+    let camera_transform = Transform::from_xyz(0.0, 2.0, 0.0).looking_to(toward_moon, Vec3::Y);
+    let render = |moon_disc: bool| {
+        let mut app = Headless::new(size, TextureFormat::Rgba16Float, |app| {
+            app.add_plugins(CloudscapePlugin)
+                .insert_resource(CloudNoiseSettings(crate::common::scenes::small_recipe()))
+                .insert_resource(SceneClock::at(instant));
+        });
+        app.world().spawn((
+            DirectionalLight::default(),
+            Sun {
+                moon_disc,
+                ..default()
+            },
+        ));
+        let target = app.target.clone();
+        app.world().spawn((
+            Camera3d::default(),
+            Projection::Perspective(PerspectiveProjection {
+                fov: (fov_deg as f32).to_radians(),
+                ..default()
+            }),
+            camera_transform,
+            Exposure { ev100 },
+            Tonemapping::None,
+            VolumetricClouds::MEDIUM,
+            RenderTarget::Image(target.into()),
+        ));
+        app.run_frames(6);
+        app.read_target()
+    };
+    let with = render(true);
+    let without = render(false);
+    with.save_png(output_dir().join("moon.png"), 1.0);
+
+    let disc = MoonDisc::new(
+        &lunar,
+        &solar,
+        toward_moon.as_dvec3().normalize(),
+        sun_direction_scene(&solar).as_dvec3().normalize(),
+        lunar.illuminance_lux(),
+    );
+    let exposure = f64::from(Exposure { ev100 }.exposure());
+    let tan_half = (0.5 * fov_deg).to_radians().tan();
+    let aspect = f64::from(size.x) / f64::from(size.y);
+    let pixel = fov_deg.to_radians() / f64::from(size.y);
+    let rotation = camera_transform.rotation.as_dquat();
+    let (mut diff2, mut twin2, mut lit_pixels) = (0.0, 0.0, 0);
+    // The disc's lit and dark halves, by the side of the sun each pixel is on.
+    let across =
+        (disc.toward_sun - disc.direction * disc.toward_sun.dot(disc.direction)).normalize();
+    let (mut sunward, mut away) = (0.0, 0.0);
+    for y in 0..size.y {
+        for x in 0..size.x {
+            let ndc_x = (2.0 * (f64::from(x) + 0.5) / f64::from(size.x) - 1.0) * tan_half * aspect;
+            let ndc_y = (1.0 - 2.0 * (f64::from(y) + 0.5) / f64::from(size.y)) * tan_half;
+            let direction = (rotation * DVec3::new(ndc_x, ndc_y, -1.0)).normalize();
+            let elevation = direction.y.asin().to_degrees();
+            let twin = exposure * disc.radiance(direction, elevation, pixel);
+            let gpu = f64::from(with.luminance(x, y) - without.luminance(x, y));
+            diff2 += (gpu - twin).powi(2);
+            twin2 += twin * twin;
+            lit_pixels += usize::from(twin > 0.05);
+            if direction.dot(disc.direction) > disc.radius_rad.cos() {
+                if direction.dot(across) > 0.0 {
+                    sunward += gpu;
+                } else {
+                    away += gpu;
+                }
+            }
+        }
+    }
+    let relative = (diff2 / twin2).sqrt();
+    println!(
+        "moon: {lit_pixels} lit pixels, relative RMSE {relative:.4}, sunward half {sunward:.2}, other half {away:.2}"
+    );
+    assert!(
+        lit_pixels >= 40,
+        "the disc is drawn: {lit_pixels} lit pixels"
+    );
+    assert!(
+        relative < 0.05,
+        "the GPU's disc is the twin's: relative RMSE {relative:.4}"
+    );
+    assert!(
+        away < 0.05 * sunward,
+        "a quarter moon is lit on the sun's side only: {sunward} against {away}"
+    );
+}

@@ -27,10 +27,15 @@ struct ViewGround {
     planet_radius_m: f32,
     // The star field (`star_light`): celestial coordinates from world directions; then x the
     // illuminance of a magnitude-0 star outside the atmosphere (lux; 0: no stars), y a star's
-    // spot's standard deviation (rad); and the field's seed.
+    // spot's standard deviation (rad), z the full-resolution view's pixel angle (rad); and the
+    // field's seed.
     celestial_from_world: mat3x3<f32>,
     stars: vec4<f32>,
     star_seed: u32,
+    // The moon's disc (`moon_light`): xyz toward its centre, w its radius (rad); xyz from the
+    // moon toward the sun, w the radiance per unit of shading (cd/m^2; 0: no disc).
+    moon: vec4<f32>,
+    moon_sun: vec4<f32>,
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -175,6 +180,47 @@ const EXTINCTION_MAG_PER_AIRMASS: f32 = 0.2;
 const STAR_CELL_MARGIN: f32 = 0.15;
 const PI: f32 = 3.141592653589793;
 
+// The visual air mass at `sin_elevation` above the horizon (Kasten & Young 1989). Rust:
+// `sky::light::air_mass`.
+fn air_mass(sin_elevation: f32) -> f32 {
+    let elevation_deg = degrees(asin(sin_elevation));
+    return 1.0 / (sin_elevation + 0.50572 * pow(elevation_deg + 6.07995, -1.6364));
+}
+
+// The radiance (cd/m^2, linear RGB, before exposure) of the moon's disc along the world
+// direction `direction` (unit): Lommel-Seeliger shading mu0 / (mu0 + mu) of the sunlit part,
+// the rim blended over one pixel, dimmed by the air mass; 0 without a disc or below the
+// horizon. Rust: `MoonDisc::radiance` (with `shading` and `coverage`).
+fn moon_light(ground: ViewGround, direction: vec3<f32>) -> vec3<f32> {
+    let sin_elevation = dot(direction, ground.camera_up_altitude.xyz);
+    if !(ground.moon_sun.w > 0.0) || !(sin_elevation > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let m = ground.moon.xyz;
+    let radius = ground.moon.w;
+    let angle = acos(clamp(dot(direction, m), -1.0, 1.0));
+    let pixel = ground.stars.z;
+    var coverage = select(0.0, 1.0, angle <= radius);
+    if pixel > 0.0 {
+        coverage = saturate((radius - angle) / pixel + 0.5);
+    }
+    if !(coverage > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    var p = (direction - m * dot(direction, m)) / sin(radius);
+    let rho = length(p);
+    if rho > 1.0 {
+        p = p / rho;
+    }
+    let mu = sqrt(max(1.0 - dot(p, p), 0.0));
+    let mu0 = dot(p - m * mu, ground.moon_sun.xyz);
+    if !(mu0 > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let extinction = pow(10.0, -0.4 * EXTINCTION_MAG_PER_AIRMASS * air_mass(sin_elevation));
+    return vec3<f32>(ground.moon_sun.w * mu0 / (mu0 + mu) * coverage * extinction);
+}
+
 // Rust: `star_hash`.
 fn star_hash(value: u32) -> u32 {
     var x = value;
@@ -232,8 +278,7 @@ fn star_light(ground: ViewGround, direction: vec3<f32>) -> vec3<f32> {
     let place = tan(s * (PI / 4.0));
     let star = normalize(major + u * place.x + v * place.y);
     let magnitude = FAINTEST_MAGNITUDE + 2.0 * log2(star_unit(h, 2u)) * 0.30102999566398120;
-    let elevation_deg = degrees(asin(sin_elevation));
-    let mass = 1.0 / (sin_elevation + 0.50572 * pow(elevation_deg + 6.07995, -1.6364));
+    let mass = air_mass(sin_elevation);
     let sigma = ground.stars.y;
     let offset = c - star;
     let spot = exp(-dot(offset, offset) / (2.0 * sigma * sigma)) / (2.0 * PI * sigma * sigma);

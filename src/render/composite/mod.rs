@@ -277,10 +277,11 @@ pub(crate) struct GpuTemporalUniforms {
     pub uv_scale: Vec2,
 }
 
-/// Where the ground sphere is for a view, laid out as `ViewGround` in `composite.wgsl` (32
-/// bytes): the upsample and the temporal accumulation end each pixel's ray at the scene or the
-/// ground sphere, whichever is nearer ([`crate::reference::composite::ray_end_m`]), as the
-/// march does for the texels they read.
+/// Where the ground sphere is for a view, laid out as `ViewGround` in `composite.wgsl`: the
+/// upsample and the temporal accumulation end each pixel's ray at the scene or the ground
+/// sphere, whichever is nearer ([`crate::reference::composite::ray_end_m`]), as the march does
+/// for the texels they read; and the stars and the moon's disc the upsample draws behind the
+/// clouds.
 #[derive(ShaderType, Clone, Debug, Default)]
 pub(crate) struct GpuViewGround {
     /// The camera's local vertical (xyz, unit) and its altitude above the ground (w, m).
@@ -290,10 +291,17 @@ pub(crate) struct GpuViewGround {
     /// Celestial coordinates from world directions ([`crate::sky::stars::StarSky`]).
     pub celestial_from_world: Mat3,
     /// x: the illuminance of a magnitude-0 star outside the atmosphere, lux (0: no stars); y:
-    /// the standard deviation of a star's spot, rad; z, w: 0.
+    /// the standard deviation of a star's spot, rad; z: the full-resolution view's pixel angle,
+    /// rad; w: 0.
     pub stars: Vec4,
     /// The star field's seed.
     pub star_seed: u32,
+    /// The moon's disc ([`crate::sky::moon::disc::MoonDisc`]): xyz the unit vector toward its
+    /// centre, w its radius, rad.
+    pub moon: Vec4,
+    /// xyz the unit vector from the moon toward the sun; w the disc's radiance per unit of
+    /// shading, cd/m² (0: no disc).
+    pub moon_sun: Vec4,
 }
 
 /// Where a view's camera was and how it projected, for the next frame's reprojection.
@@ -558,10 +566,16 @@ pub(crate) fn prepare_composite_targets(
                     stars.zero_magnitude_lux,
                     // The march's pixel angle is the full-resolution view's.
                     (crate::sky::stars::STAR_BLUR_PIXELS * settings.pixel_angle_rad) as f32,
-                    0.0,
+                    settings.pixel_angle_rad as f32,
                     0.0,
                 ),
                 star_seed: stars.seed,
+                moon: stars.moon.map_or(Vec4::ZERO, |disc| {
+                    disc.direction.extend(disc.radius_rad).as_vec4()
+                }),
+                moon_sun: stars.moon.map_or(Vec4::ZERO, |disc| {
+                    disc.toward_sun.extend(disc.lux_per_sr).as_vec4()
+                }),
             });
             ground.set_label(Some("cloud_view_ground"));
             ground.write_buffer(&device, &queue);

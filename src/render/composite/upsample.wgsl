@@ -14,7 +14,7 @@
 #import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
 #import bevy_cloudscape::composite::{
     FAR_AWAY, ViewGround, footprint, footprint_texel, upsample_weights, uv_to_ndc,
-    surface_distance, star_light, view_direction, view_ray_end,
+    surface_distance, star_light, moon_light, view_direction, view_ray_end,
 }
 
 @group(0) @binding(2) var low_colour: texture_2d<f32>;
@@ -51,21 +51,22 @@ fn fragment(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
     return with_stars(sum, ray);
 }
 
-// (L, T) with the stars behind the clouds added where the pixel sees the sky: the composite
+// (L, T) with the stars and the moon behind the clouds added where the pixel sees the sky: the composite
 // `scene * T + L` then shows them through the clouds' transmittance, over the scene's sky.
 fn with_stars(colour: vec4<f32>, ray: PixelRay) -> vec4<f32> {
     if ray.distance < FAR_AWAY {
         return colour;
     }
-    return vec4<f32>(colour.rgb + colour.a * view.exposure * star_light(ground, ray.direction), colour.a);
+    let sky = star_light(ground, ray.direction) + moon_light(ground, ray.direction);
+    return vec4<f32>(colour.rgb + colour.a * view.exposure * sky, colour.a);
 }
 
 // The full-resolution (L, T) at this pixel, composited as it is, with the stars.
 @fragment
 fn copy(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
     let colour = textureLoad(low_colour, vec2<i32>(in.position.xy), 0);
-    // Without stars the pixel's ray is not needed.
-    if !(ground.stars.x > 0.0) {
+    // Without stars and moon the pixel's ray is not needed.
+    if !(ground.stars.x > 0.0) && !(ground.moon_sun.w > 0.0) {
         return colour;
     }
     return with_stars(colour, pixel_ray(in));
