@@ -30,6 +30,8 @@ pub(crate) struct BernOptions {
     pub(crate) azimuth_deg: Option<f32>,
     /// `--pitch`: the view's angle above the horizon, degrees (negative: down).
     pub(crate) pitch_deg: Option<f32>,
+    /// `--fov`: the camera's vertical field of view, degrees.
+    pub(crate) fov_deg: f32,
     /// `--growth`: the low clouds grow with the automaton (`CloudGrowth`).
     pub(crate) growth: bool,
     /// `--look`: the headless shots are the look board's views ([`look::BOARD`]).
@@ -93,6 +95,10 @@ pub(crate) struct Cli {
     /// viewpoint's, a few degrees up].
     #[arg(long, value_parser = parse_pitch, allow_hyphen_values = true)]
     pub(crate) pitch: Option<f32>,
+    /// The camera's vertical field of view, degrees, 0.5 to 120 (small: a telephoto, for the
+    /// moon's phase).
+    #[arg(long, default_value_t = FOV_DEG, value_parser = parse_fov)]
+    pub(crate) fov: f32,
     /// No cloud shadows on the terrain.
     #[arg(long)]
     pub(crate) no_cloud_shadows: bool,
@@ -181,6 +187,7 @@ impl Cli {
             clouds: !self.no_clouds,
             azimuth_deg: self.azimuth,
             pitch_deg: self.pitch,
+            fov_deg: self.fov,
             growth: self.growth,
             look: self.look,
             live: self.live,
@@ -202,6 +209,13 @@ pub(crate) fn parse_pitch(text: &str) -> Result<f32, String> {
         .ok()
         .filter(|x| (-89.0..=89.0).contains(x))
         .ok_or_else(|| format!("{text:?} is not an angle from -89 to 89 degrees"))
+}
+
+pub(crate) fn parse_fov(text: &str) -> Result<f32, String> {
+    text.parse::<f32>()
+        .ok()
+        .filter(|x| (0.5..=120.0).contains(x))
+        .ok_or_else(|| format!("{text:?} is not a field of view from 0.5 to 120 degrees"))
 }
 
 pub(crate) fn parse_fraction(text: &str) -> Result<f32, String> {

@@ -47,6 +47,7 @@
 //! | `--ev100 EV` | camera exposure | 14 (sunlit scenes; Bevy's atmosphere example uses 13) |
 //! | `--azimuth DEG` | look this way from the view's hill, degrees clockwise from north (toward a low sun for light shafts) | the view's own: Gurten 20°, Bantiger 225° |
 //! | `--pitch DEG` | look this far above the horizon, degrees, −89 to 89 (up toward a high sun for its halo) | the view's own, a few degrees up |
+//! | `--fov DEG` | the camera's vertical field of view, degrees, 0.5–120 (a few degrees: a telephoto, for the moon's phase) | 50 |
 //! | `--no-clouds` | no `VolumetricClouds` on the camera: the same frame without clouds (CI compares the two) | clouds on |
 //! | `--log-frame-times` | log the frame time and the cloud passes' GPU times every second | off |
 //! | `--growth` | the low clouds grow with the cloud-growth automaton: they form and dissolve as the low cover changes | off |

@@ -50,7 +50,7 @@ pub(crate) fn spawn_scene(
             Name::new("camera"),
             Camera3d::default(),
             Projection::Perspective(PerspectiveProjection {
-                fov: FOV_DEG.to_radians(),
+                fov: options.fov_deg.to_radians(),
                 ..default()
             }),
             viewpoint_transform(&view, &terrain),
