@@ -4,7 +4,11 @@
 //! shows the same flashes again.
 //!
 //! A flash is a point of light inside the storm cloud for a third of a second, with three
-//! strokes ([`flash_envelope`]). The cloud march lights the cloud volume from within by it
+//! strokes ([`flash_envelope`]). It takes the first of [`FLASH_PLACES`] random places within
+//! [`Lightning::radius_m`] of the camera where the CPU twin finds cloud ([`flash_offset`]); once
+//! a storm is on, the plugin makes the CPU copies of the cloud noise that needs in the
+//! background (as [`CloudQueryPlugin`] does; seconds), and until they are ready a flash takes
+//! the first place whether it is in cloud or not. The cloud march lights the cloud volume from within by it
 //! ([`flash_source`](crate::reference::render::flash_source): the unscattered light near the
 //! flash, the diffusion approximation farther out), so it shows through the cloud as a glow,
 //! and a `PointLight` under the cloud (marked [`LightningLight`]) lights the ground while the
@@ -24,6 +28,7 @@ use bevy::{
 use crate::{
     CloudscapeSystems,
     layers::{CloudKind, CloudLayer},
+    query::{CloudQuery, CloudQueryPlugin, CpuCloudTextures, generate_cpu_cloud_textures},
     render::VolumetricClouds,
     scene::SceneClock,
     world::CloudWorld,
@@ -227,15 +232,34 @@ pub fn flash_at(seed: u64, rate_per_minute: f32, unix_seconds: f64) -> Option<Fl
     if uniform(seed, slot, 0) >= chance {
         return None;
     }
-    // Uniform over the disc.
-    let radius = uniform(seed, slot, 1).sqrt();
-    let angle = std::f64::consts::TAU * uniform(seed, slot, 2);
+    let start_s = slot as f64 * FLASH_SLOT_S;
     Some(FlashEvent {
-        start_s: slot as f64 * FLASH_SLOT_S,
-        offset: Vec2::new((radius * angle.cos()) as f32, (radius * angle.sin()) as f32),
+        start_s,
+        // Uniform over the disc.
+        offset: flash_offset(seed, start_s, 0),
         strength: (0.5 + 0.5 * uniform(seed, slot, 3)) as f32,
         ground_draw: uniform(seed, slot, 4) as f32,
     })
+}
+
+/// How many places in the storm's disc a flash tries, the event's own first, for one inside
+/// the cloud ([`flash_offset`]).
+pub const FLASH_PLACES: u64 = 12;
+
+/// The `k`-th place a flash starting at `start_s` may take, as an offset on the unit disc
+/// (times [`Lightning::radius_m`] around the camera): `k = 0` is its event's own
+/// ([`FlashEvent::offset`]), the others drawn from `seed` and the flash's slot alone.
+#[must_use]
+pub fn flash_offset(seed: u64, start_s: f64, k: u64) -> Vec2 {
+    let slot = (start_s / FLASH_SLOT_S).floor() as i64;
+    let (a, b) = if k == 0 {
+        (1, 2)
+    } else {
+        (100 + 2 * k, 101 + 2 * k)
+    };
+    let radius = uniform(seed, slot, a).sqrt();
+    let angle = std::f64::consts::TAU * uniform(seed, slot, b);
+    Vec2::new((radius * angle.cos()) as f32, (radius * angle.sin()) as f32)
 }
 
 /// Segments of a ground stroke's channel ([`bolt_path`]).
@@ -307,6 +331,8 @@ pub(crate) fn update_lightning(
     mut active: ResMut<ActiveFlash>,
     mut lights: Query<(Entity, &mut Transform, &mut PointLight), With<LightningLight>>,
     mut warned: Local<Vec<&'static str>>,
+    clouds: CloudQuery,
+    mut placed: Local<Option<(f64, Vec2)>>,
 ) {
     // A field that is not a number takes its default, with one warning while it stays bad.
     let (lightning, bad) = lightning.sanitized();
@@ -335,7 +361,26 @@ pub(crate) fn update_lightning(
             |layer| (layer.base_m, layer.top_m, layer.density),
         );
         let height = lightning.height_fraction.clamp(0.0, 1.0) * (top - base);
-        let offset = event.offset * lightning.radius_m.max(0.0);
+        let radius = lightning.radius_m.max(0.0);
+        let at = |offset: Vec2| {
+            Vec3::new(
+                camera.x + offset.x * radius,
+                ground + base + height,
+                camera.z + offset.y * radius,
+            )
+        };
+        // Inside the cloud: the first of the flash's places where the CPU twin finds cloud
+        // (once its noise is ready), kept for the flash's length.
+        let unit = match *placed {
+            Some((start, unit)) if start == event.start_s => unit,
+            _ => {
+                let unit =
+                    place_in_cloud(&lightning, event, |offset| clouds.density_at(at(offset)));
+                *placed = Some((event.start_s, unit));
+                unit
+            }
+        };
+        let offset = unit * radius;
         let intensity = lightning.peak_intensity_cd.max(0.0) * event.strength * brightness;
         // Conservative scattering's diffuse transmittance through the cloud below the flash,
         // `1 / (1 + ¾ (1 − g) τ)`: the Eddington approximation's, as in the march's diffuse
@@ -387,6 +432,38 @@ pub(crate) fn update_lightning(
                 commands.entity(entity).despawn();
             }
         }
+    }
+}
+
+/// The place of `event` in the storm's disc: the first of its [`FLASH_PLACES`] places
+/// ([`flash_offset`]) where `density` (1/m, `None`: not known) finds cloud; the event's own
+/// when none does or the density is not known.
+fn place_in_cloud(
+    lightning: &Lightning,
+    event: FlashEvent,
+    density: impl Fn(Vec2) -> Option<f32>,
+) -> Vec2 {
+    for k in 0..FLASH_PLACES {
+        let offset = flash_offset(lightning.seed, event.start_s, k);
+        match density(offset) {
+            None => break,
+            Some(sigma) if sigma > 0.0 => return offset,
+            Some(_) => {}
+        }
+    }
+    event.offset
+}
+
+/// Asks for the CPU copies of the cloud noise ([`CpuCloudTextures`]) once a storm is on, so
+/// [`update_lightning`] can place its flashes inside the cloud; a scene without storms never
+/// makes them.
+fn want_cloud_textures(
+    mut commands: Commands,
+    active: Res<ActiveFlash>,
+    textures: Option<Res<CpuCloudTextures>>,
+) {
+    if active.rate_per_minute > 0.0 && textures.is_none() {
+        commands.init_resource::<CpuCloudTextures>();
     }
 }
 
@@ -486,11 +563,19 @@ impl Plugin for LightningPlugin {
             .register_type::<Lightning>()
             .add_systems(
                 Update,
-                (update_lightning, update_bolt)
+                (update_lightning, update_bolt, want_cloud_textures)
                     .chain()
                     .in_set(CloudscapeSystems::Sun)
                     .after(CloudscapeSystems::Layers),
             );
+        // The CPU noise is made by `CloudQueryPlugin`'s system once asked for; one of the two
+        // plugins adds it.
+        if !app.is_plugin_added::<CloudQueryPlugin>() {
+            app.add_systems(
+                PreUpdate,
+                generate_cpu_cloud_textures.run_if(resource_exists::<CpuCloudTextures>),
+            );
+        }
     }
 }
 
@@ -563,6 +648,122 @@ mod tests {
         assert!(aside > 1.0 && aside < 263.0 * 2f32.sqrt(), "{aside}");
         assert_eq!(path, bolt_path(5, 120.0, top, 500.0));
         assert_ne!(path, bolt_path(5, 121.0, top, 500.0));
+    }
+
+    #[test]
+    fn a_flash_takes_its_first_place_in_cloud() {
+        let lightning = Lightning::default();
+        let event = flash_at(lightning.seed, 60.0, 1_000.0).unwrap();
+        let place = |k| flash_offset(lightning.seed, event.start_s, k);
+        assert_eq!(place(0), event.offset);
+        // Cloud at the fourth place only.
+        let cloud_at =
+            |k: u64| move |offset: Vec2| Some(if offset == place(k) { 0.01 } else { 0.0 });
+        assert_eq!(place_in_cloud(&lightning, event, cloud_at(3)), place(3));
+        // Clear air everywhere, or no density known: the event's own place.
+        assert_eq!(
+            place_in_cloud(&lightning, event, |_| Some(0.0)),
+            event.offset
+        );
+        assert_eq!(place_in_cloud(&lightning, event, |_| None), event.offset);
+        // The places differ from each other and from flash to flash.
+        assert_ne!(place(1), place(2));
+        assert_ne!(
+            place(1),
+            flash_offset(lightning.seed, event.start_s + 1.0, 1)
+        );
+    }
+
+    /// In an app, a storm makes the CPU noise on its own and its flashes go into the cloud:
+    /// every flash with a place in cloud among its tries takes one.
+    #[test]
+    fn flashes_are_placed_inside_the_storm_cloud() {
+        use crate::{
+            reference::{noise::NoiseRecipe, render::CloudTextures},
+            render::noise::CloudNoiseSettings,
+        };
+        use bevy::ecs::system::RunSystemOnce;
+        let mut app = App::new();
+        app.add_plugins((MinimalPlugins, AssetPlugin::default()))
+            .init_asset::<Mesh>()
+            .init_asset::<StandardMaterial>()
+            .init_resource::<SceneClock>()
+            .insert_resource(CloudNoiseSettings(NoiseRecipe {
+                base_size: 16,
+                detail_size: 8,
+                weather_size: 32,
+                ..NoiseRecipe::default()
+            }))
+            .add_plugins(LightningPlugin);
+        app.world_mut().spawn(CloudLayer {
+            coverage: 0.3,
+            ..CloudLayer::new(CloudKind::Cumulonimbus)
+        });
+        app.world_mut().spawn((
+            Camera::default(),
+            VolumetricClouds::default(),
+            GlobalTransform::from_xyz(0.0, 2.0, 0.0),
+        ));
+        *app.world_mut().resource_mut::<Lightning>() = Lightning {
+            rate_override: Some(60.0),
+            ..default()
+        };
+        let at = |app: &mut App, seconds: f64| {
+            let mut clock = SceneClock::at(crate::scene::UtcInstant::from_unix_seconds(0));
+            clock.set_unix_seconds(seconds);
+            clock.paused = true;
+            app.insert_resource(clock);
+            app.update();
+        };
+        // No storm, no CPU noise; a storm asks for it.
+        let storm = app.world().resource::<Lightning>().clone();
+        *app.world_mut().resource_mut::<Lightning>() = Lightning {
+            rate_override: Some(0.0),
+            ..default()
+        };
+        at(&mut app, 999.5);
+        at(&mut app, 999.6);
+        assert!(!app.world().contains_resource::<CpuCloudTextures>());
+        *app.world_mut().resource_mut::<Lightning>() = storm;
+        at(&mut app, 999.7);
+        assert!(app.world().contains_resource::<CpuCloudTextures>());
+        // Made here rather than on the task pool the test harness's threads share.
+        let recipe = app.world().resource::<CloudNoiseSettings>().0.clone();
+        let textures = CloudTextures::from_recipe(&recipe);
+        app.insert_resource(CpuCloudTextures {
+            ready: Some((recipe, std::sync::Arc::new(textures))),
+            pending: None,
+        });
+        let density = |app: &mut App, point: Vec3| {
+            app.world_mut()
+                .run_system_once(move |clouds: CloudQuery| clouds.density_at(point))
+                .unwrap()
+                .unwrap()
+        };
+        let (mut inside, mut could) = (0, 0);
+        let lightning = app.world().resource::<Lightning>().clone();
+        for second in 1_000..1_040 {
+            at(&mut app, f64::from(second));
+            let flash = app.world().resource::<ActiveFlash>().flash.unwrap();
+            let in_cloud = density(&mut app, flash.position) > 0.0;
+            inside += usize::from(in_cloud);
+            let any = (0..FLASH_PLACES).any(|k| {
+                let offset =
+                    flash_offset(lightning.seed, f64::from(second), k) * lightning.radius_m;
+                let point = Vec3::new(offset.x, flash.position.y, offset.y);
+                density(&mut app, point) > 0.0
+            });
+            could += usize::from(any);
+            assert!(
+                in_cloud || !any,
+                "second {second}: a place in cloud was passed over"
+            );
+        }
+        println!("{inside} of 40 flashes in cloud ({could} could be)");
+        assert!(
+            inside >= 20,
+            "most flashes are in the cloud: {inside} of 40"
+        );
     }
 
     #[test]

@@ -10,7 +10,9 @@
 //! `None`.
 //!
 //! The plugin is not part of [`crate::CloudscapePlugin`]: add it when the game asks questions,
-//! so that games which don't pay nothing.
+//! so that games which don't pay nothing. (A storm makes the textures too: the
+//! [`LightningPlugin`](crate::lightning::LightningPlugin) asks for them once a cumulonimbus
+//! flashes, to place its flashes inside the cloud.)
 
 use std::sync::Arc;
 
@@ -42,16 +44,22 @@ pub struct CloudQueryPlugin;
 
 impl Plugin for CloudQueryPlugin {
     fn build(&self, app: &mut App) {
-        app.init_resource::<CpuCloudTextures>()
-            .add_systems(PreUpdate, generate_cpu_cloud_textures);
+        app.init_resource::<CpuCloudTextures>();
+        // `LightningPlugin` adds the same system (for its storms) when it comes first.
+        if !app.is_plugin_added::<crate::lightning::LightningPlugin>() {
+            app.add_systems(
+                PreUpdate,
+                generate_cpu_cloud_textures.run_if(resource_exists::<CpuCloudTextures>),
+            );
+        }
     }
 }
 
 /// The CPU copies of the cloud-noise textures, for the recipe they were made from.
 #[derive(Resource, Default)]
 pub struct CpuCloudTextures {
-    ready: Option<(NoiseRecipe, Arc<CloudTextures>)>,
-    pending: Option<(NoiseRecipe, Task<CloudTextures>)>,
+    pub(crate) ready: Option<(NoiseRecipe, Arc<CloudTextures>)>,
+    pub(crate) pending: Option<(NoiseRecipe, Task<CloudTextures>)>,
 }
 
 impl CpuCloudTextures {
@@ -62,7 +70,7 @@ impl CpuCloudTextures {
 }
 
 /// Starts a generation when the recipe changes and collects it when done.
-fn generate_cpu_cloud_textures(
+pub(crate) fn generate_cpu_cloud_textures(
     settings: Option<Res<CloudNoiseSettings>>,
     mut textures: ResMut<CpuCloudTextures>,
 ) {

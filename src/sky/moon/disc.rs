@@ -76,7 +76,7 @@ impl MoonDisc {
         // The surface normal, toward the observer at the disc's centre.
         let normal = p - m * mu;
         let mu0 = normal.dot(self.toward_sun);
-        if !(mu0 > 0.0) {
+        if mu0.is_nan() || mu0 <= 0.0 {
             return 0.0;
         }
         mu0 / (mu0 + mu)
@@ -87,7 +87,7 @@ impl MoonDisc {
     #[must_use]
     pub fn coverage(&self, view: DVec3, pixel_rad: f64) -> f64 {
         let angle = view.dot(self.direction).clamp(-1.0, 1.0).acos();
-        if !(pixel_rad > 0.0) {
+        if pixel_rad.is_nan() || pixel_rad <= 0.0 {
             return f64::from(u8::from(angle <= self.radius_rad));
         }
         ((self.radius_rad - angle) / pixel_rad + 0.5).clamp(0.0, 1.0)
@@ -99,11 +99,15 @@ impl MoonDisc {
     /// [`EXTINCTION_MAG_PER_AIRMASS`] per air mass; 0 below the horizon. WGSL twin: `moon_light`.
     #[must_use]
     pub fn radiance(&self, view: DVec3, elevation_deg: f64, pixel_rad: f64) -> f64 {
-        if !(self.lux_per_sr > 0.0) || elevation_deg.is_nan() || elevation_deg <= 0.0 {
+        if self.lux_per_sr.is_nan()
+            || self.lux_per_sr <= 0.0
+            || elevation_deg.is_nan()
+            || elevation_deg <= 0.0
+        {
             return 0.0;
         }
         let coverage = self.coverage(view, pixel_rad);
-        if !(coverage > 0.0) {
+        if coverage.is_nan() || coverage <= 0.0 {
             return 0.0;
         }
         let extinction = 10f64.powf(-0.4 * EXTINCTION_MAG_PER_AIRMASS * air_mass(elevation_deg));
@@ -186,7 +190,7 @@ mod tests {
     }
 
     /// The disc's lit share is the moon's illuminated fraction (Meeus ch. 48, checked against
-    /// PyEphem) at every phase: new, crescent, quarters, gibbous and full moons of 2021.
+    /// `PyEphem`) at every phase: new, crescent, quarters, gibbous and full moons of 2021.
     #[test]
     fn the_lit_part_of_the_disc_is_the_illuminated_fraction() {
         for time in [
