@@ -1,5 +1,6 @@
 //! Lightning: storm clouds flash. Every visible cumulonimbus layer (the weather mapping makes
-//! them from thunderstorm weather codes and convective rain) sets a flash rate; flashes come at
+//! them from thunderstorm weather codes, heavy convective rain and
+//! Open-Meteo's lightning potential) sets a flash rate; flashes come at
 //! random, deterministic for [`Lightning::seed`] and the scene time, so a time-lapse or a test
 //! shows the same flashes again.
 //!

@@ -34,7 +34,7 @@ snowfall,weather_code,pressure_msl,cloud_cover,cloud_cover_low,cloud_cover_mid,c
 visibility,wind_speed_10m,wind_direction_10m,is_day,wind_speed_850hPa,wind_direction_850hPa,\
 geopotential_height_850hPa,wind_speed_700hPa,wind_direction_700hPa,geopotential_height_700hPa,\
 wind_speed_500hPa,wind_direction_500hPa,geopotential_height_500hPa,wind_speed_300hPa,\
-wind_direction_300hPa,geopotential_height_300hPa";
+wind_direction_300hPa,geopotential_height_300hPa,lightning_potential";
 
 /// One forecast fetched from the web and refreshed on a schedule; add it with
 /// [`LiveForecasts::add`].
@@ -402,6 +402,8 @@ mod tests {
                 "{key} is not asked for"
             );
         }
+        // And the storms' lightning potential, which the ICON models give.
+        assert!(asked.contains(&"lightning_potential"));
     }
 
     #[test]

@@ -63,6 +63,7 @@ fn column_spec(key: &str) -> Option<(Target, Quantity)> {
         "sunshine_duration" => (series(V::SunshineDuration), Q::Duration),
         "convective_cloud_base" => (series(V::ConvectiveCloudBase), Q::Distance),
         "convective_cloud_top" => (series(V::ConvectiveCloudTop), Q::Distance),
+        "lightning_potential" => (series(V::LightningPotential), Q::SpecificEnergy),
         "is_day" => (Target::IsDaylight, Q::Flag),
         "weather_code" | "weathercode" => (Target::WmoWeatherCode, Q::Code),
         _ => return level_spec(key),

@@ -39,6 +39,8 @@ pub(crate) enum Quantity {
     Code,
     /// A 0/1 flag (day or night), no unit.
     Flag,
+    /// Energy per mass (the lightning potential index) → J/kg, ≥ 0.
+    SpecificEnergy,
 }
 
 /// `si = value * scale + offset`.
@@ -138,6 +140,10 @@ impl Quantity {
                 "mi" | "mile" | "miles" => Linear::scale(1609.344),
                 _ => return None,
             },
+            Self::SpecificEnergy => match unit {
+                "J/kg" | "J kg-1" | "Jkg-1" => Linear::IDENTITY,
+                _ => return None,
+            },
             Self::Duration => match unit {
                 "s" | "seconds" | "second" => Linear::IDENTITY,
                 "minutes" | "minute" | "min" => Linear::scale(60.0),
@@ -166,7 +172,8 @@ impl Quantity {
             | Self::PrecipitationAmount
             | Self::SnowDepth
             | Self::Distance
-            | Self::Duration => (raw < 0.0).then_some("≥ 0"),
+            | Self::Duration
+            | Self::SpecificEnergy => (raw < 0.0).then_some("≥ 0"),
             Self::Temperature => (si < -273.15).then_some("above absolute zero"),
             Self::Pressure => (raw <= 0.0).then_some("> 0"),
             Self::Code => (raw.fract() != 0.0 || !(0.0..=255.0).contains(&raw))

@@ -518,9 +518,12 @@ fn bundled_forecasts_parse() {
         assert_eq!((forecast.start(), forecast.end()), (Some(start), Some(end)));
         for variable in Variable::ALL {
             let has = forecast.series(variable).is_some();
+            // meteoblue has no convective cloud base or top, nor a lightning potential.
             let expected = !matches!(
                 variable,
-                Variable::ConvectiveCloudBase | Variable::ConvectiveCloudTop
+                Variable::ConvectiveCloudBase
+                    | Variable::ConvectiveCloudTop
+                    | Variable::LightningPotential
             );
             assert_eq!(has, expected, "{name} {variable:?}");
         }
@@ -543,6 +546,25 @@ fn bundled_forecasts_parse() {
     let top = open_meteo.pressure_level(300.0).unwrap();
     assert_eq!(top.wind_speed_m_s.as_ref().unwrap()[168], None);
     assert!(top.wind_speed_m_s.as_ref().unwrap()[162].is_some());
+}
+
+#[test]
+fn open_meteo_lightning_potential_is_read_in_joules_per_kilogram() {
+    let json =
+        br#"{"latitude": 46.9, "longitude": 7.4, "elevation": 540.0, "utc_offset_seconds": 0,
+        "hourly_units": {"time": "iso8601", "lightning_potential": "J/kg"},
+        "hourly": {"time": ["2021-05-07T14:00", "2021-05-07T15:00", "2021-05-07T16:00"],
+                   "lightning_potential": [0.0, 12.5, null]}}"#;
+    let forecast = Forecast::from_reader(&json[..], None).unwrap();
+    assert_eq!(
+        forecast.series(Variable::LightningPotential).unwrap(),
+        &[Some(0.0), Some(12.5), None]
+    );
+    // A negative index is out of range.
+    let bad = br#"{"latitude": 46.9, "longitude": 7.4, "elevation": 540.0, "utc_offset_seconds": 0,
+        "hourly_units": {"time": "iso8601", "lightning_potential": "J/kg"},
+        "hourly": {"time": ["2021-05-07T14:00"], "lightning_potential": [-3.0]}}"#;
+    assert!(Forecast::from_reader(&bad[..], None).is_err());
 }
 
 /// xorshift64 (Marsaglia 2003): a deterministic stream for the mutation test.

@@ -59,11 +59,17 @@ pub enum Variable {
     ConvectiveCloudBase,
     /// Top of convective cloud above sea level, m (Open-Meteo `convective_cloud_top`).
     ConvectiveCloudTop,
+    /// Lightning potential index, J/kg (Open-Meteo `lightning_potential`, from the ICON
+    /// models): the potential for charge separation in a convective cloud (Yair et al. 2010,
+    /// "Predicting the potential for lightning activity in Mediterranean storms based on the
+    /// Weather Research and Forecasting (WRF) model dynamic and microphysical fields"), 0 where
+    /// no lightning is expected.
+    LightningPotential,
 }
 
 impl Variable {
     /// Number of variables.
-    pub const COUNT: usize = 18;
+    pub const COUNT: usize = 19;
 
     /// Every variable, in index order.
     pub const ALL: [Self; Self::COUNT] = [
@@ -85,6 +91,7 @@ impl Variable {
         Self::SunshineDuration,
         Self::ConvectiveCloudBase,
         Self::ConvectiveCloudTop,
+        Self::LightningPotential,
     ];
 
     /// A `snake_case` name for messages and JSON output, e.g. `"low_cover"`.
@@ -109,6 +116,7 @@ impl Variable {
             Self::SunshineDuration => "sunshine_duration",
             Self::ConvectiveCloudBase => "convective_cloud_base",
             Self::ConvectiveCloudTop => "convective_cloud_top",
+            Self::LightningPotential => "lightning_potential",
         }
     }
 
@@ -133,6 +141,7 @@ impl Variable {
             Self::WindDirection => "° from north, direction the wind comes from",
             Self::Visibility | Self::ConvectiveCloudBase | Self::ConvectiveCloudTop => "m",
             Self::SunshineDuration => "s over the preceding step",
+            Self::LightningPotential => "J/kg",
         }
     }
 

@@ -68,6 +68,8 @@ pub(super) struct Inputs {
     pub(super) levels: [Option<LevelWind>; STANDARD_LEVELS_HPA.len()],
     pub(super) convective_base_m: Option<f32>,
     pub(super) convective_top_m: Option<f32>,
+    /// Lightning potential index, J/kg.
+    pub(super) lightning_potential: Option<f32>,
     pub(super) codes: CodeHints,
 }
 

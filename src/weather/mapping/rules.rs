@@ -46,6 +46,12 @@ pub struct WeatherMapping {
     /// Convective precipitation rate, mm/h, at and above which a cumulonimbus layer appears.
     /// Default 1 mm/h: an hourly grid-mean shower rate this high means intense local cells.
     pub thunderstorm_threshold_mm_per_h: f32,
+    /// Lightning potential index, J/kg, at and above which a cumulonimbus layer appears (Open-Meteo
+    /// `lightning_potential`, where the forecast has it). Default 1 J/kg: a clearly positive
+    /// index, above the small values a model's grid leaves around a cell. The index is the
+    /// potential for charge separation, not a flash rate, so it decides only whether the storm
+    /// is there.
+    pub lightning_potential_threshold_j_per_kg: f32,
     /// Convective precipitation rate, mm/h, that brings the cumulonimbus coverage 63 % of the
     /// way from its minimum to its maximum. Default 5 mm/h.
     pub thunderstorm_scale_mm_per_h: f32,
@@ -96,6 +102,7 @@ impl WeatherMapping {
         precipitation_threshold_mm_per_h: 0.1,
         shower_threshold_mm_per_h: 0.1,
         thunderstorm_threshold_mm_per_h: 1.0,
+        lightning_potential_threshold_j_per_kg: 1.0,
         thunderstorm_scale_mm_per_h: 5.0,
         cumulonimbus_min_coverage: 0.15,
         cumulonimbus_max_coverage: 0.6,
@@ -183,6 +190,7 @@ impl WeatherMapping {
         let above_ground = |v: f32| v - ground_m;
         let convective_base_m = reader.read(Variable::ConvectiveCloudBase).map(above_ground);
         let convective_top_m = reader.read(Variable::ConvectiveCloudTop).map(above_ground);
+        let lightning_potential = reader.read(Variable::LightningPotential).map(rate);
 
         let mut levels = [None; STANDARD_LEVELS_HPA.len()];
         let mut level_not_finite = false;
@@ -238,6 +246,7 @@ impl WeatherMapping {
             levels,
             convective_base_m,
             convective_top_m,
+            lightning_potential,
             codes,
         };
 
@@ -308,7 +317,11 @@ impl WeatherMapping {
     /// Whether a cumulonimbus layer is present: `Some(true)` on a thunder code or heavy
     /// convective precipitation, `Some(false)` when either says no, `None` when nothing says.
     pub(super) fn thunderstorm(&self, inputs: &Inputs) -> Option<bool> {
-        if inputs.codes.thunder {
+        if inputs.codes.thunder
+            || inputs
+                .lightning_potential
+                .is_some_and(|lpi| lpi >= self.lightning_potential_threshold_j_per_kg)
+        {
             return Some(true);
         }
         match inputs.convective {

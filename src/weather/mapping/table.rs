@@ -17,7 +17,7 @@ pub struct MappingRow {
 }
 
 /// The mapping table as data, in the order of the [module docs](super)' table.
-pub const MAPPING_TABLE: [MappingRow; 13] = {
+pub const MAPPING_TABLE: [MappingRow; 14] = {
     use LayerSlot::{Convective, Fog, High, Low, Mid};
     [
         MappingRow {
@@ -39,6 +39,11 @@ pub const MAPPING_TABLE: [MappingRow; 13] = {
             input: "convective_precipitation",
             slots: &[Convective, Low],
             rule: "cumulonimbus at ≥ 1 mm/h, coverage 0.15 + 0.45·max(1 − e^(−rate/5), low cover), its rain; cumulus low layer at ≥ 0.1 mm/h",
+        },
+        MappingRow {
+            input: "lightning_potential",
+            slots: &[Convective],
+            rule: "cumulonimbus at ≥ 1 J/kg, coverage as for convective precipitation",
         },
         MappingRow {
             input: "pictocode",

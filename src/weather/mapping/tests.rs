@@ -367,6 +367,29 @@ fn convective_precipitation_adds_and_grows_a_cumulonimbus() {
 }
 
 #[test]
+fn a_lightning_potential_adds_a_cumulonimbus() {
+    let cb = |lpi: Option<f32>| {
+        let s = with(fair(), Variable::LightningPotential, lpi);
+        mapped(&s).0[LayerSlot::Convective].coverage
+    };
+    // Fair weather without showers: no storm below the threshold, one from it on.
+    assert_eq!(cb(None), 0.0);
+    assert_eq!(cb(Some(0.0)), 0.0);
+    assert_eq!(cb(Some(0.5)), 0.0, "below 1 J/kg");
+    assert!(
+        cb(Some(1.0)) >= 0.15,
+        "a storm at 1 J/kg: {}",
+        cb(Some(1.0))
+    );
+    assert_eq!(cb(Some(1.0)), cb(Some(50.0)), "a potential, not a rate");
+    // A storm the showers make stays whatever the index says.
+    let showers = with(fair(), Variable::ConvectivePrecipitation, Some(3.0));
+    let showers = with(showers, Variable::Precipitation, Some(3.0));
+    let s = with(showers, Variable::LightningPotential, Some(0.0));
+    assert!(mapped(&s).0[LayerSlot::Convective].coverage > 0.15);
+}
+
+#[test]
 fn convective_cloud_base_and_top_are_placed_above_ground() {
     let s = with(fair(), Variable::ConvectiveCloudBase, Some(1_840.0));
     let s = with(s, Variable::ConvectiveCloudTop, Some(11_540.0));
