@@ -160,6 +160,23 @@ fn storm_strip(
         .insert(bevy::camera::Exposure { ev100: 9.0 });
     *app.world()
         .resource_mut::<bevy_cloudscape::lightning::Lightning>() = storm_lightning();
+    // The storm places its flashes inside the cloud with the CPU copies of the cloud noise,
+    // which it asks for once it flashes: wait for them, so the strip is the same every run.
+    let waiting = std::time::Instant::now();
+    while !app
+        .world()
+        .get_resource::<bevy_cloudscape::query::CpuCloudTextures>()
+        .is_some_and(bevy_cloudscape::query::CpuCloudTextures::is_ready)
+    {
+        if waiting.elapsed() > std::time::Duration::from_secs(900) {
+            return Err("the CPU cloud noise was not made within 15 minutes".into());
+        }
+        app.update();
+    }
+    println!(
+        "the CPU cloud noise took {:.1} s",
+        waiting.elapsed().as_secs_f64()
+    );
     let mut strip = Vec::new();
     for k in 0..STORM_IMAGES {
         let mut clock = SceneClock::at(start.saturating_add_seconds(i64::from(k)));

@@ -774,6 +774,16 @@ mod tests {
             .init_asset::<Mesh>()
             .init_asset::<StandardMaterial>()
             .init_resource::<SceneClock>()
+            // The storm asks for the CPU noise: a small one, so the task pool the tests share
+            // is not held for long.
+            .insert_resource(crate::render::noise::CloudNoiseSettings(
+                crate::reference::noise::NoiseRecipe {
+                    base_size: 16,
+                    detail_size: 8,
+                    weather_size: 16,
+                    ..default()
+                },
+            ))
             .add_plugins(LightningPlugin);
         app.world_mut().spawn((
             Camera::default(),

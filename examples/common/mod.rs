@@ -244,9 +244,15 @@ fn capture_after_frames(
     mut progress: ResMut<HeadlessProgress>,
     target: Res<CaptureTarget>,
     clouds: Query<&VolumetricClouds, With<MainCamera>>,
+    cpu_noise: Option<Res<bevy_cloudscape::query::CpuCloudTextures>>,
 ) {
     let count = shots.count.max(1);
     if !progress.ready || progress.shot >= count {
+        return;
+    }
+    // A storm places its flashes with the CPU noise once it is made: wait for it, so the
+    // images are the same every run.
+    if cpu_noise.is_some_and(|noise| !noise.is_ready()) {
         return;
     }
     progress.frames += 1;
