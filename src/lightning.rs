@@ -584,6 +584,42 @@ impl Plugin for LightningPlugin {
 mod tests {
     use super::*;
 
+    /// An app with the lightning plugin and a camera with clouds 2 m up, its storm asking for a
+    /// small CPU noise (16³ base) so the task pool the tests share is not held for long.
+    fn lightning_app() -> App {
+        let mut app = App::new();
+        app.add_plugins((MinimalPlugins, AssetPlugin::default()))
+            .init_asset::<Mesh>()
+            .init_asset::<StandardMaterial>()
+            .init_resource::<SceneClock>()
+            .insert_resource(crate::render::noise::CloudNoiseSettings(
+                crate::reference::noise::NoiseRecipe {
+                    base_size: 16,
+                    detail_size: 8,
+                    weather_size: 32,
+                    ..default()
+                },
+            ))
+            .add_plugins(LightningPlugin);
+        app.world_mut().spawn((
+            Camera::default(),
+            VolumetricClouds::default(),
+            GlobalTransform::from_xyz(0.0, 2.0, 0.0),
+        ));
+        app
+    }
+
+    /// Sets the paused scene clock to `seconds` and runs `frames` frames.
+    fn run_at(app: &mut App, seconds: f64, frames: u32) {
+        let mut clock = SceneClock::at(crate::scene::UtcInstant::from_unix_seconds(0));
+        clock.set_unix_seconds(seconds);
+        clock.paused = true;
+        app.insert_resource(clock);
+        for _ in 0..frames {
+            app.update();
+        }
+    }
+
     #[test]
     fn flashes_come_at_the_rate_and_the_same_for_a_seed() {
         let count = |seed, rate| {
@@ -679,43 +715,18 @@ mod tests {
     /// every flash with a place in cloud among its tries takes one.
     #[test]
     fn flashes_are_placed_inside_the_storm_cloud() {
-        use crate::{
-            reference::{noise::NoiseRecipe, render::CloudTextures},
-            render::noise::CloudNoiseSettings,
-        };
+        use crate::{reference::render::CloudTextures, render::noise::CloudNoiseSettings};
         use bevy::ecs::system::RunSystemOnce;
-        let mut app = App::new();
-        app.add_plugins((MinimalPlugins, AssetPlugin::default()))
-            .init_asset::<Mesh>()
-            .init_asset::<StandardMaterial>()
-            .init_resource::<SceneClock>()
-            .insert_resource(CloudNoiseSettings(NoiseRecipe {
-                base_size: 16,
-                detail_size: 8,
-                weather_size: 32,
-                ..NoiseRecipe::default()
-            }))
-            .add_plugins(LightningPlugin);
+        let mut app = lightning_app();
         app.world_mut().spawn(CloudLayer {
             coverage: 0.3,
             ..CloudLayer::new(CloudKind::Cumulonimbus)
         });
-        app.world_mut().spawn((
-            Camera::default(),
-            VolumetricClouds::default(),
-            GlobalTransform::from_xyz(0.0, 2.0, 0.0),
-        ));
         *app.world_mut().resource_mut::<Lightning>() = Lightning {
             rate_override: Some(60.0),
             ..default()
         };
-        let at = |app: &mut App, seconds: f64| {
-            let mut clock = SceneClock::at(crate::scene::UtcInstant::from_unix_seconds(0));
-            clock.set_unix_seconds(seconds);
-            clock.paused = true;
-            app.insert_resource(clock);
-            app.update();
-        };
+        let at = |app: &mut App, seconds: f64| run_at(app, seconds, 1);
         // No storm, no CPU noise; a storm asks for it.
         let storm = app.world().resource::<Lightning>().clone();
         *app.world_mut().resource_mut::<Lightning>() = Lightning {
@@ -769,27 +780,7 @@ mod tests {
 
     #[test]
     fn a_ground_stroke_draws_its_channel_and_only_while_it_shines() {
-        let mut app = App::new();
-        app.add_plugins((MinimalPlugins, AssetPlugin::default()))
-            .init_asset::<Mesh>()
-            .init_asset::<StandardMaterial>()
-            .init_resource::<SceneClock>()
-            // The storm asks for the CPU noise: a small one, so the task pool the tests share
-            // is not held for long.
-            .insert_resource(crate::render::noise::CloudNoiseSettings(
-                crate::reference::noise::NoiseRecipe {
-                    base_size: 16,
-                    detail_size: 8,
-                    weather_size: 16,
-                    ..default()
-                },
-            ))
-            .add_plugins(LightningPlugin);
-        app.world_mut().spawn((
-            Camera::default(),
-            VolumetricClouds::default(),
-            GlobalTransform::from_xyz(0.0, 2.0, 0.0),
-        ));
+        let mut app = lightning_app();
         // Every second flashes, and every flash strikes the ground.
         *app.world_mut().resource_mut::<Lightning>() = Lightning {
             rate_override: Some(60.0),
@@ -803,14 +794,7 @@ mod tests {
                 .iter(world)
                 .count()
         };
-        let at = |app: &mut App, seconds: f64| {
-            let mut clock = SceneClock::at(crate::scene::UtcInstant::from_unix_seconds(0));
-            clock.set_unix_seconds(seconds);
-            clock.paused = true;
-            app.insert_resource(clock);
-            app.update();
-            app.update();
-        };
+        let at = |app: &mut App, seconds: f64| run_at(app, seconds, 2);
         at(&mut app, 1_000.0);
         assert_eq!(bolts(&mut app), 1, "a stroke at its first peak");
         let flash = app.world().resource::<ActiveFlash>().flash.unwrap();

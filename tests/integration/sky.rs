@@ -88,13 +88,49 @@ fn atmosphere_sky_and_sunlit_ground() {
     );
 }
 
+/// The world direction through the centre of pixel (`x`, `y`) of a `size` image seen by a
+/// camera turned by `rotation` with a `fov_deg` vertical field of view.
+fn pixel_direction(
+    rotation: bevy::math::DQuat,
+    size: UVec2,
+    fov_deg: f64,
+    x: u32,
+    y: u32,
+) -> bevy::math::DVec3 {
+    let tan_half = (0.5 * fov_deg).to_radians().tan();
+    let aspect = f64::from(size.x) / f64::from(size.y);
+    let ndc_x = (2.0 * (f64::from(x) + 0.5) / f64::from(size.x) - 1.0) * tan_half * aspect;
+    let ndc_y = (1.0 - 2.0 * (f64::from(y) + 0.5) / f64::from(size.y)) * tan_half;
+    (rotation * bevy::math::DVec3::new(ndc_x, ndc_y, -1.0)).normalize()
+}
+
+/// A `MEDIUM` cloud camera at `transform` with a `fov_deg` vertical field of view, exposed at
+/// `ev100` without tone mapping, rendering into the app's target.
+fn spawn_night_camera(app: &mut Headless, transform: Transform, fov_deg: f32, ev100: f32) {
+    use bevy::camera::Exposure;
+    use bevy_cloudscape::prelude::VolumetricClouds;
+    let target = app.target.clone();
+    app.world().spawn((
+        Camera3d::default(),
+        Projection::Perspective(PerspectiveProjection {
+            fov: fov_deg.to_radians(),
+            ..default()
+        }),
+        transform,
+        Exposure { ev100 },
+        Tonemapping::None,
+        VolumetricClouds::MEDIUM,
+        RenderTarget::Image(target.into()),
+    ));
+}
+
 /// The stars at night: a clear sky shows the star field where its CPU twin puts it and as bright
 /// as the twin says; an overcast deck hides it. (That there are none by day, or without a `Sun`
 /// light, is `stars_need_a_sun_light_below_the_horizon` in `src/sky/stars.rs`: the frame without
 /// stars here is the same shader path.)
 #[test]
 fn stars_shine_at_night_where_the_twin_puts_them_and_clouds_hide_them() {
-    use bevy::{camera::Exposure, math::DVec3};
+    use bevy::camera::Exposure;
     use bevy_cloudscape::{
         prelude::*,
         scene::{SceneClock, UtcInstant},
@@ -127,19 +163,7 @@ fn stars_shine_at_night_where_the_twin_puts_them_and_clouds_hide_them() {
                 1.0,
             ));
         }
-        let target = app.target.clone();
-        app.world().spawn((
-            Camera3d::default(),
-            Projection::Perspective(PerspectiveProjection {
-                fov: 60f32.to_radians(),
-                ..default()
-            }),
-            camera_transform,
-            Exposure { ev100 },
-            Tonemapping::None,
-            VolumetricClouds::MEDIUM,
-            RenderTarget::Image(target.into()),
-        ));
+        spawn_night_camera(&mut app, camera_transform, 60.0, ev100);
         app.run_frames(20);
         app.read_target()
     };
@@ -154,8 +178,7 @@ fn stars_shine_at_night_where_the_twin_puts_them_and_clouds_hide_them() {
     let celestial =
         bevy_cloudscape::sky::stars::celestial_from_scene(&origin, instant.unix_seconds() as f64);
     let exposure = f64::from(Exposure { ev100 }.exposure());
-    let tan_half = (30f64).to_radians().tan();
-    let aspect = f64::from(size.x) / f64::from(size.y);
+    let fov_deg = 60.0;
     // The crate's pixel angle: the field of view over the image height.
     let sigma =
         bevy_cloudscape::sky::stars::STAR_BLUR_PIXELS * 60f64.to_radians() / f64::from(size.y);
@@ -165,9 +188,7 @@ fn stars_shine_at_night_where_the_twin_puts_them_and_clouds_hide_them() {
         (0.0f64, 0.0f64, 0, 0.0, 0.0);
     for y in 0..size.y {
         for x in 0..size.x {
-            let ndc_x = (2.0 * (f64::from(x) + 0.5) / f64::from(size.x) - 1.0) * tan_half * aspect;
-            let ndc_y = (1.0 - 2.0 * (f64::from(y) + 0.5) / f64::from(size.y)) * tan_half;
-            let direction = (rotation * DVec3::new(ndc_x, ndc_y, -1.0)).normalize();
+            let direction = pixel_direction(rotation, size, fov_deg, x, y);
             let elevation = direction.y.asin().to_degrees();
             let twin = star_radiance(0, celestial * direction, elevation, sigma, zero_lux);
             let twin = exposure * (0.2126 * twin[0] + 0.7152 * twin[1] + 0.0722 * twin[2]);
@@ -208,7 +229,7 @@ fn stars_shine_at_night_where_the_twin_puts_them_and_clouds_hide_them() {
 /// `the_moon_light_hides_bevys_round_disc` in `src/sky/sun.rs`.)
 #[test]
 fn the_moon_shows_its_phase_where_the_twin_draws_it() {
-    use bevy::{camera::Exposure, math::DVec3};
+    use bevy::camera::Exposure;
     use bevy_cloudscape::{
         prelude::*,
         scene::{GeoOrigin, SceneClock, UtcInstant},
@@ -243,19 +264,7 @@ fn the_moon_shows_its_phase_where_the_twin_draws_it() {
                 ..default()
             },
         ));
-        let target = app.target.clone();
-        app.world().spawn((
-            Camera3d::default(),
-            Projection::Perspective(PerspectiveProjection {
-                fov: (fov_deg as f32).to_radians(),
-                ..default()
-            }),
-            camera_transform,
-            Exposure { ev100 },
-            Tonemapping::None,
-            VolumetricClouds::MEDIUM,
-            RenderTarget::Image(target.into()),
-        ));
+        spawn_night_camera(&mut app, camera_transform, fov_deg as f32, ev100);
         app.run_frames(6);
         app.read_target()
     };
@@ -271,8 +280,6 @@ fn the_moon_shows_its_phase_where_the_twin_draws_it() {
         lunar.illuminance_lux(),
     );
     let exposure = f64::from(Exposure { ev100 }.exposure());
-    let tan_half = (0.5 * fov_deg).to_radians().tan();
-    let aspect = f64::from(size.x) / f64::from(size.y);
     let pixel = fov_deg.to_radians() / f64::from(size.y);
     let rotation = camera_transform.rotation.as_dquat();
     let (mut diff2, mut twin2, mut lit_pixels) = (0.0, 0.0, 0);
@@ -282,9 +289,7 @@ fn the_moon_shows_its_phase_where_the_twin_draws_it() {
     let (mut sunward, mut away) = (0.0, 0.0);
     for y in 0..size.y {
         for x in 0..size.x {
-            let ndc_x = (2.0 * (f64::from(x) + 0.5) / f64::from(size.x) - 1.0) * tan_half * aspect;
-            let ndc_y = (1.0 - 2.0 * (f64::from(y) + 0.5) / f64::from(size.y)) * tan_half;
-            let direction = (rotation * DVec3::new(ndc_x, ndc_y, -1.0)).normalize();
+            let direction = pixel_direction(rotation, size, fov_deg, x, y);
             let elevation = direction.y.asin().to_degrees();
             let twin = exposure * disc.radiance(direction, elevation, pixel);
             let gpu = f64::from(with.luminance(x, y) - without.luminance(x, y));

@@ -171,20 +171,27 @@ mod tests {
         (m * c + (e1 * x + e2 * y) * s).normalize()
     }
 
+    /// The midpoints `(x, y)` of an `n` × `n` grid over the disc's square that fall on the disc,
+    /// in units of its radius; each cell is `2 / n` wide.
+    fn disc_grid(n: u32) -> impl Iterator<Item = (f64, f64)> {
+        let cell = 2.0 / f64::from(n);
+        (0..n)
+            .flat_map(move |j| (0..n).map(move |i| (i, j)))
+            .map(move |(i, j)| {
+                (
+                    -1.0 + (f64::from(i) + 0.5) * cell,
+                    -1.0 + (f64::from(j) + 0.5) * cell,
+                )
+            })
+            .filter(|(x, y)| x * x + y * y <= 1.0)
+    }
+
     /// The share of the disc's area that is lit, on a fine grid.
     fn lit_share(disc: &MoonDisc) -> f64 {
-        let n = 400;
         let (mut inside, mut lit) = (0u32, 0u32);
-        for j in 0..n {
-            for i in 0..n {
-                let x = -1.0 + (f64::from(i) + 0.5) * 2.0 / f64::from(n);
-                let y = -1.0 + (f64::from(j) + 0.5) * 2.0 / f64::from(n);
-                if x * x + y * y > 1.0 {
-                    continue;
-                }
-                inside += 1;
-                lit += u32::from(disc.shading(on_disc(disc, x, y)) > 0.0);
-            }
+        for (x, y) in disc_grid(400) {
+            inside += 1;
+            lit += u32::from(disc.shading(on_disc(disc, x, y)) > 0.0);
         }
         f64::from(lit) / f64::from(inside)
     }
@@ -224,16 +231,9 @@ mod tests {
             let (disc, lunar) = disc_at(time);
             let n = 300;
             let cell = 2.0 / f64::from(n);
-            let mut sum = 0.0;
-            for j in 0..n {
-                for i in 0..n {
-                    let x = -1.0 + (f64::from(i) + 0.5) * cell;
-                    let y = -1.0 + (f64::from(j) + 0.5) * cell;
-                    if x * x + y * y <= 1.0 {
-                        sum += disc.lux_per_sr * disc.shading(on_disc(&disc, x, y));
-                    }
-                }
-            }
+            let sum: f64 = disc_grid(n)
+                .map(|(x, y)| disc.lux_per_sr * disc.shading(on_disc(&disc, x, y)))
+                .sum();
             let lux = sum * cell * cell * disc.radius_rad.sin().powi(2);
             let expected = lunar.illuminance_lux();
             assert!(
