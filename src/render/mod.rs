@@ -236,10 +236,14 @@ pub struct VolumetricClouds {
     pub light_shafts: bool,
     /// Temporal accumulation: the weight of each new frame in a running average of the jittered
     /// frames (0.02–1; 1 turns it off), reprojected through the camera's motion and clamped to
-    /// the new frame's neighbourhood ([`composite`]). A still view averages about `1 / blend`
-    /// frames, which turns the jitter's noise into a converged image; a pixel whose content
-    /// moved takes `blend · (1 + pixels moved)`, so a turning camera's history blurs less. Only
-    /// with [`VolumetricClouds::jitter`] on: without it every frame samples the same points.
+    /// the new frame's neighbourhood ([`composite`]). A still view at full resolution averages
+    /// about `2 / blend` frames, which turns the jitter's noise into a converged image; at a
+    /// reduced resolution each pixel takes its own sample once in `k²` frames (`k = 1 /
+    /// resolution_scale`) with the weight `1 − (1 − blend)^k` and averages several of them (about
+    /// 5 at the default blend and a quarter of the resolution)
+    /// ([`crate::reference::composite::hit_blend`]). A pixel whose content moved takes
+    /// `blend · (1 + pixels moved)`, so a turning camera's history blurs less. Only with
+    /// [`VolumetricClouds::jitter`] on: without it every frame samples the same points.
     /// Default 0.1.
     pub temporal_blend: f32,
     /// Fraction of the view's resolution the light-shaft pass runs at, per axis (0.125–1).
