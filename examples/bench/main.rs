@@ -25,9 +25,10 @@
 //!   `ms_per_frame` is the cost of the cloud pass: the median frame time with the clouds minus
 //!   the median frame time of the same view with no visible layer (the pass then does not run),
 //!   so what the engine does anyway cancels out; it includes the temporal accumulation's pass.
-//!   Presets that accumulate jittered frames are measured once a still view has settled: a
-//!   full cycle of the temporal upsampling's sample positions, then until the first frame
-//!   weighs under 1 % (`--no-jitter` turns jitter and accumulation off). Errors
+//!   Presets that accumulate jittered frames are measured once a still view has settled: until
+//!   the first frame weighs under 1 % in each pixel's running average, each pixel taking its
+//!   own sample once in the temporal upsampling's cycle (`--no-jitter` turns jitter and
+//!   accumulation off). Errors
 //!   compare the linear luminance of the
 //!   composite `grey · T + L` over a mid-grey background with the reference's (relative RMSE:
 //!   `sqrt(mean(Δ²)) / mean(reference)`; max: largest `|Δ|`).
@@ -389,7 +390,7 @@ fn measure(
     // With temporal accumulation the error is that of the settled image a still view shows.
     // Timing alone needs no converged image.
     let settle = if converge {
-        common::accumulation_frames(settings).max(2)
+        common::accumulation_frames_until(settings, 0.01).max(2)
     } else {
         2
     };

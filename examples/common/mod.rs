@@ -226,17 +226,24 @@ fn redirect_camera_to_image(
 }
 
 /// Frames the clouds' temporal accumulation needs before a capture shows a converged image:
-/// until the first frame's weight in each pixel's running average is under 1 %, each pixel
-/// taking a new sample once in the temporal upsampling's `k²` frames with the weight
-/// `hit_blend` (`k²` times the visits that takes; 176 frames for the default blend at quarter
-/// resolution). 0 without accumulation.
+/// until the first frame's weight in each pixel's running average is under 5 % (the first
+/// frame is the same view, only blurred by the upsample, so what is left of it no longer
+/// shows), each pixel taking a new sample once in the temporal upsampling's `k²` frames with
+/// the weight `hit_blend` (`k²` times the visits that takes; 112 frames for the default blend
+/// at quarter resolution). 0 without accumulation.
 pub fn accumulation_frames(clouds: &VolumetricClouds) -> u32 {
+    accumulation_frames_until(clouds, 0.05)
+}
+
+/// Frames until the first frame's weight in each pixel's running average is under
+/// `first_weight` (0–1; see [`accumulation_frames`]). 0 without accumulation.
+pub fn accumulation_frames_until(clouds: &VolumetricClouds, first_weight: f32) -> u32 {
     let Some(blend) = clouds.effective_temporal_blend() else {
         return 0;
     };
     let k = (1.0 / clouds.sanitized().resolution_scale).round() as u32;
     let hit = bevy_cloudscape::reference::composite::hit_blend(f64::from(blend), k) as f32;
-    let settle = (0.01_f32.ln() / (1.0 - hit).ln()).ceil() as u32;
+    let settle = (first_weight.ln() / (1.0 - hit).ln()).ceil() as u32;
     k * k * settle
 }
 
