@@ -33,8 +33,9 @@ pub struct Sun {
     /// Draw the moon's disc with its phase, by day and by night, wherever it is above the
     /// horizon ([`crate::sky::moon::disc`]; the cloud composite draws it behind the clouds, so
     /// only a camera with [`VolumetricClouds`](crate::render::VolumetricClouds) shows it). While
-    /// the light is the moon's, its `SunDisk` intensity is 0 meanwhile, so Bevy's atmosphere
-    /// draws no round disc of its own, and it is given back when the sun returns. Default true.
+    /// the light is the moon's, the crate sets its `SunDisk` intensity to 0, so Bevy's
+    /// atmosphere draws no round disc of its own, and gives the light's own `SunDisk` back when
+    /// the sun returns. Default true.
     pub moon_disc: bool,
 }
 
