@@ -1,15 +1,15 @@
 //! Lightning: storm clouds flash. Every visible cumulonimbus layer (the weather mapping makes
-//! them from thunderstorm weather codes, heavy convective rain and
-//! Open-Meteo's lightning potential) sets a flash rate; flashes come at
-//! random, deterministic for [`Lightning::seed`] and the scene time, so a time-lapse or a test
-//! shows the same flashes again.
+//! them from thunderstorm weather codes, heavy convective rain and Open-Meteo's lightning
+//! potential) sets a flash rate; flashes come at random, deterministic for [`Lightning::seed`]
+//! and the scene time, so a time-lapse or a test shows the same flashes again.
 //!
 //! A flash is a point of light inside the storm cloud for a third of a second, with three
 //! strokes ([`flash_envelope`]). It takes the first of [`FLASH_PLACES`] random places within
-//! [`Lightning::radius_m`] of the camera where the CPU twin finds cloud ([`flash_offset`]); once
-//! a storm is on, the plugin makes the CPU copies of the cloud noise that needs in the
-//! background (as [`CloudQueryPlugin`] does; seconds), and until they are ready a flash takes
-//! the first place whether it is in cloud or not. The cloud march lights the cloud volume from within by it
+//! [`Lightning::radius_m`] of the camera where the CPU twin finds cloud ([`flash_offset`]);
+//! once a storm is on, the plugin makes the CPU copies of the cloud noise that needs in the
+//! background (as [`CloudQueryPlugin`](crate::query::CloudQueryPlugin) does; seconds), and
+//! until they are ready a flash takes the first place whether it is in cloud or not. The cloud
+//! march lights the cloud volume from within by it
 //! ([`flash_source`](crate::reference::render::flash_source): the unscattered light near the
 //! flash, the diffusion approximation farther out), so it shows through the cloud as a glow,
 //! and a `PointLight` under the cloud (marked [`LightningLight`]) lights the ground while the
@@ -29,7 +29,7 @@ use bevy::{
 use crate::{
     CloudscapeSystems,
     layers::{CloudKind, CloudLayer},
-    query::{CloudQuery, CloudQueryPlugin, CpuCloudTextures, generate_cpu_cloud_textures},
+    query::{CloudQuery, CpuCloudTextures, add_cpu_noise},
     render::VolumetricClouds,
     scene::SceneClock,
     world::CloudWorld,
@@ -361,8 +361,9 @@ pub(crate) fn update_lightning(
             },
             |layer| (layer.base_m, layer.top_m, layer.density),
         );
-        let height = lightning.height_fraction.clamp(0.0, 1.0) * (top - base);
-        let radius = lightning.radius_m.max(0.0);
+        // `sanitized` keeps the fraction in 0–1 and the radius and intensity at least 0.
+        let height = lightning.height_fraction * (top - base);
+        let radius = lightning.radius_m;
         let at = |offset: Vec2| {
             Vec3::new(
                 camera.x + offset.x * radius,
@@ -381,19 +382,14 @@ pub(crate) fn update_lightning(
                 unit
             }
         };
-        let offset = unit * radius;
-        let intensity = lightning.peak_intensity_cd.max(0.0) * event.strength * brightness;
+        let intensity = lightning.peak_intensity_cd * event.strength * brightness;
         // Conservative scattering's diffuse transmittance through the cloud below the flash,
         // `1 / (1 + ¾ (1 − g) τ)`: the Eddington approximation's, as in the march's diffuse
         // light (Joseph, Wiscombe & Weinman 1976), with a cloud's g = 0.85.
         let tau = (density * height).max(0.0);
         let below = 1.0 / (1.0 + 0.75 * 0.15 * tau);
         (intensity > 0.0 && intensity.is_finite()).then(|| Flash {
-            position: Vec3::new(
-                camera.x + offset.x,
-                ground + base + height,
-                camera.z + offset.y,
-            ),
+            position: at(unit),
             intensity_cd: intensity,
             ground_lumens: 4.0 * std::f32::consts::PI * intensity * below,
             start_s: event.start_s,
@@ -569,14 +565,8 @@ impl Plugin for LightningPlugin {
                     .in_set(CloudscapeSystems::Sun)
                     .after(CloudscapeSystems::Layers),
             );
-        // The CPU noise is made by `CloudQueryPlugin`'s system once asked for; one of the two
-        // plugins adds it.
-        if !app.is_plugin_added::<CloudQueryPlugin>() {
-            app.add_systems(
-                PreUpdate,
-                generate_cpu_cloud_textures.run_if(resource_exists::<CpuCloudTextures>),
-            );
-        }
+        // The CPU noise, made once `want_cloud_textures` asks for it.
+        add_cpu_noise(app);
     }
 }
 
@@ -664,6 +654,8 @@ mod tests {
         let [_, (second, second_brightness), (third, third_brightness)] = FLASH_STROKES;
         let before = flash_envelope(second - 0.005);
         assert!(before < 0.5 * second_brightness, "{before}");
+        // And dark between the strokes: under 15 % of the flash's peak.
+        assert!(before < 0.15 * FLASH_STROKES[0].1, "{before}");
         assert_eq!(flash_envelope(second), second_brightness);
         assert_eq!(flash_envelope(third), third_brightness);
     }

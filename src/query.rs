@@ -45,13 +45,28 @@ pub struct CloudQueryPlugin;
 impl Plugin for CloudQueryPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<CpuCloudTextures>();
-        // `LightningPlugin` adds the same system (for its storms) when it comes first.
-        if !app.is_plugin_added::<crate::lightning::LightningPlugin>() {
-            app.add_systems(
-                PreUpdate,
-                generate_cpu_cloud_textures.run_if(resource_exists::<CpuCloudTextures>),
-            );
-        }
+        add_cpu_noise(app);
+    }
+}
+
+/// Makes [`CpuCloudTextures`] while the resource exists; added once by whichever plugin needs
+/// the CPU noise first ([`add_cpu_noise`]).
+struct CpuNoisePlugin;
+
+impl Plugin for CpuNoisePlugin {
+    fn build(&self, app: &mut App) {
+        app.add_systems(
+            PreUpdate,
+            generate_cpu_cloud_textures.run_if(resource_exists::<CpuCloudTextures>),
+        );
+    }
+}
+
+/// Adds the system that makes [`CpuCloudTextures`] once it is asked for (the resource is
+/// inserted), unless another plugin added it already.
+pub(crate) fn add_cpu_noise(app: &mut App) {
+    if !app.is_plugin_added::<CpuNoisePlugin>() {
+        app.add_plugins(CpuNoisePlugin);
     }
 }
 
@@ -70,7 +85,7 @@ impl CpuCloudTextures {
 }
 
 /// Starts a generation when the recipe changes and collects it when done.
-pub(crate) fn generate_cpu_cloud_textures(
+fn generate_cpu_cloud_textures(
     settings: Option<Res<CloudNoiseSettings>>,
     mut textures: ResMut<CpuCloudTextures>,
 ) {
