@@ -804,6 +804,28 @@ mod tests {
         )
     }
 
+    /// The CPU twin's march of one ray from the camera of `march` along `direction`, ending at
+    /// `t_max` (m), with a jitter of 0.5.
+    fn march_ray(
+        textures: &crate::reference::render::CloudTextures,
+        march: &MarchSettings,
+        layers: &[MarchLayer],
+        direction: [f64; 3],
+        t_max: f64,
+    ) -> crate::reference::render::MarchResult {
+        crate::reference::render::march_clouds(
+            textures,
+            march,
+            layers,
+            march.camera_altitude_m,
+            march.camera_up,
+            direction,
+            t_max,
+            0.5,
+            None,
+        )
+    }
+
     /// The march inputs of `layer` alone for a default camera setup at `camera`, no sun.
     fn inputs(layer: &CloudLayer, camera: &GlobalTransform) -> (MarchSettings, Vec<MarchLayer>) {
         march_inputs(
@@ -916,7 +938,6 @@ mod tests {
     /// atmosphere the light goes at sunset for every cloud.
     #[test]
     fn clouds_above_the_earths_shadow_keep_the_sun_after_sunset() {
-        use crate::reference::render::march_clouds;
         let textures = small_textures();
         let below = -1.0_f32.to_radians();
         let sun = |through_atmosphere, lux| CloudSun {
@@ -943,16 +964,12 @@ mod tests {
                 0,
             );
             let up = 20.0_f64.to_radians();
-            let result = march_clouds(
+            let result = march_ray(
                 &textures,
                 &march,
                 &layers,
-                march.camera_altitude_m,
-                march.camera_up,
                 [0.0, up.sin(), -up.cos()],
                 f64::INFINITY,
-                0.5,
-                None,
             );
             (march, result.radiance)
         };
@@ -975,7 +992,6 @@ mod tests {
 
     #[test]
     fn rain_falls_as_shafts_under_raining_layers() {
-        use crate::reference::render::march_clouds;
         let layer = CloudLayer {
             coverage: 1.0,
             rain_mm_per_h: 1.0,
@@ -995,17 +1011,7 @@ mod tests {
             ..march
         };
         let textures = small_textures();
-        let result = march_clouds(
-            &textures,
-            &march,
-            &layers,
-            march.camera_altitude_m,
-            march.camera_up,
-            [1.0, 0.0, 0.0],
-            3_000.0,
-            0.5,
-            None,
-        );
+        let result = march_ray(&textures, &march, &layers, [1.0, 0.0, 0.0], 3_000.0);
         let expected = (-sigma * 3_000.0).exp();
         assert!(
             (result.transmittance - expected).abs() < 1e-3 * expected,
