@@ -28,9 +28,8 @@
 //!   Presets that accumulate jittered frames are measured once a still view has settled: until
 //!   the first frame weighs under 1 % in each pixel's running average, each pixel taking its
 //!   own sample once in the temporal upsampling's cycle (`--no-jitter` turns jitter and
-//!   accumulation off). Errors
-//!   compare the linear luminance of the
-//!   composite `grey · T + L` over a mid-grey background with the reference's (relative RMSE:
+//!   accumulation off). Errors compare the linear luminance of the composite `grey · T + L`
+//!   over a mid-grey background with the reference's (relative RMSE:
 //!   `sqrt(mean(Δ²)) / mean(reference)`; max: largest `|Δ|`).
 //! - `bench.svg`: error (relative RMSE, vertical, log scale 10⁻⁴ to 1) against time relative
 //!   to the reference (horizontal, log scale 10⁻³ to 1), a colour per preset and a marker per

@@ -229,7 +229,7 @@ fn redirect_camera_to_image(
 /// until the first frame's weight in each pixel's running average is under 5 % (the first
 /// frame is the same view, only blurred by the upsample, so what is left of it no longer
 /// shows), each pixel taking a new sample once in the temporal upsampling's `k²` frames with
-/// the weight `hit_blend` (`k²` times the visits that takes; 112 frames for the default blend
+/// the weight `hit_blend` (`k²` times the visits that takes; 128 frames for the default blend
 /// at quarter resolution). 0 without accumulation.
 pub fn accumulation_frames(clouds: &VolumetricClouds) -> u32 {
     accumulation_frames_until(clouds, 0.05)
@@ -242,9 +242,11 @@ pub fn accumulation_frames_until(clouds: &VolumetricClouds, first_weight: f32) -
         return 0;
     };
     let k = (1.0 / clouds.sanitized().resolution_scale).round() as u32;
-    let hit = bevy_cloudscape::reference::composite::hit_blend(f64::from(blend), k) as f32;
-    let settle = (first_weight.ln() / (1.0 - hit).ln()).ceil() as u32;
-    k * k * settle
+    bevy_cloudscape::reference::composite::settle_frames(
+        f64::from(blend),
+        k,
+        f64::from(first_weight),
+    )
 }
 
 fn capture_after_frames(

@@ -253,6 +253,21 @@ pub fn hit_blend(alpha: f64, factor: u32) -> f64 {
     }
 }
 
+/// Frames a still view's accumulation takes until the first frame weighs under `first_weight`
+/// (0–1) in each pixel's running average, with the march at `1 / k` of the resolution: each
+/// pixel takes a sample once in `k²` frames with the weight [`hit_blend`], so `k²` times the
+/// visits `(1 − w)^n < first_weight` needs. 1 for a weight of 1 or a `first_weight` not in
+/// (0, 1).
+pub fn settle_frames(alpha: f64, k: u32, first_weight: f64) -> u32 {
+    let k = k.clamp(1, MAX_UPSAMPLING_FACTOR);
+    let kept = 1.0 - hit_blend(alpha, k);
+    if !(kept > 0.0 && first_weight > 0.0 && first_weight < 1.0) {
+        return 1;
+    }
+    let visits = (first_weight.ln() / kept.ln()).ceil().max(1.0) as u32;
+    k * k * visits
+}
+
 /// The new frame's weight for a pixel whose content moved `motion_px` full-resolution pixels on
 /// screen since last frame (the distance between the pixel and its [`reproject`]ed position):
 /// `α · (1 + motion_px)`, clamped to 0–1 (NaN `alpha`: 1). A still pixel keeps `alpha`. A moving
@@ -757,8 +772,7 @@ mod tests {
         // The image at a point in full-resolution pixels.
         let scene = |x: f64, y: f64| 0.5 + 0.4 * (x * 2.1).sin() * (y * 1.7).cos();
         let alpha = 0.1;
-        let visits = (0.01f64.ln() / (1.0 - hit_blend(alpha, k)).ln()).ceil() as u32;
-        let frames = k * k * visits;
+        let frames = settle_frames(alpha, k, 0.01);
         let run = |upsampling: bool| -> f64 {
             let pixels = (full[0] * full[1]) as usize;
             let mut history: Vec<Option<[f64; 1]>> = vec![None; pixels];
