@@ -112,6 +112,14 @@ impl LiveForecast {
         self.timeout = timeout;
         self
     }
+
+    /// The same forecast with its refresh and first retry at least [`MIN_REFRESH`] each, as
+    /// [`LiveForecasts::add`] keeps them.
+    fn with_min_refresh(mut self) -> Self {
+        self.refresh = self.refresh.max(MIN_REFRESH);
+        self.retry = self.retry.max(MIN_REFRESH);
+        self
+    }
 }
 
 /// The shortest [`LiveForecast::refresh`] and [`LiveForecast::retry`] it keeps: shorter ones
@@ -208,6 +216,7 @@ impl LiveForecasts {
                 live.name, live.refresh, live.retry
             );
         }
+        let live = live.with_min_refresh();
         let handle = forecasts.reserve_handle();
         self.feeds.push(Feed {
             live,
@@ -278,11 +287,7 @@ fn parse_reply(live: &LiveForecast, bytes: &[u8]) -> Result<Forecast, LiveForeca
 /// doubled for each failure after the first, at most [`LiveForecast::refresh`].
 fn retry_delay(live: &LiveForecast, failures_in_a_row: u32) -> Duration {
     let doubling = 2u32.saturating_pow(failures_in_a_row.saturating_sub(1).min(16));
-    let refresh = live.refresh.max(MIN_REFRESH);
-    live.retry
-        .max(MIN_REFRESH)
-        .saturating_mul(doubling)
-        .min(refresh)
+    live.retry.saturating_mul(doubling).min(live.refresh)
 }
 
 /// Starts each live forecast's download when it is due, and files the finished ones: a good
@@ -344,7 +349,7 @@ pub(crate) fn refresh_live_forecasts(
                 feed.status.downloads += 1;
                 feed.status.failures_in_a_row = 0;
                 feed.status.last_error = None;
-                feed.next = now + feed.live.refresh.max(MIN_REFRESH);
+                feed.next = now + feed.live.refresh;
             }
             Err(error) => {
                 feed.status.failures += 1;
@@ -380,6 +385,8 @@ mod tests {
         let eager = live
             .with_refresh(Duration::ZERO)
             .with_retry(Duration::ZERO, Duration::ZERO);
+        let eager = eager.with_min_refresh();
+        assert_eq!((eager.refresh, eager.retry), (MIN_REFRESH, MIN_REFRESH));
         assert_eq!(retry_delay(&eager, 1), MIN_REFRESH);
         assert_eq!(retry_delay(&eager, 5), MIN_REFRESH);
     }
