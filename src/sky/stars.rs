@@ -175,14 +175,12 @@ pub(crate) fn place_stars(
 fn moon_disc(sun: &SunPosition, moon: &MoonPosition, suns: &Query<&Sun>) -> Option<MoonDisc> {
     let light = suns.iter().find(|light| light.moon_disc)?;
     let (solar, lunar) = (sun.0?, moon.0?);
-    let scale =
-        f64::from(light.illuminance_lux) / f64::from(bevy::light::light_consts::lux::RAW_SUNLIGHT);
     let disc = MoonDisc::new(
         &lunar,
         &solar,
         moon_direction_scene(&lunar).as_dvec3().normalize(),
         sun_direction_scene(&solar).as_dvec3().normalize(),
-        lunar.illuminance_lux() * scale,
+        lunar.illuminance_lux() * light.moon_scale(),
     );
     (disc.lux_per_sr > 0.0).then_some(disc)
 }

@@ -49,6 +49,14 @@ impl Default for Sun {
     }
 }
 
+impl Sun {
+    /// The moonlight's lux per lux of the moon's own illuminance above the atmosphere:
+    /// `illuminance_lux / lux::RAW_SUNLIGHT` (1 by default).
+    pub(crate) fn moon_scale(&self) -> f64 {
+        f64::from(self.illuminance_lux) / f64::from(lux::RAW_SUNLIGHT)
+    }
+}
+
 /// The `SunDisk` a [`Sun`] light had before it became the moon's light (its angular size and
 /// intensity), given back when the sun returns (`None`: it had none).
 #[derive(Component, Debug, Clone, Copy)]
@@ -139,8 +147,7 @@ fn light_source(
         0.0
     };
     if moon_light > 0.0 {
-        let scale = f64::from(sun.illuminance_lux) / f64::from(lux::RAW_SUNLIGHT);
-        let illuminance = lunar.illuminance_lux() * scale * f64::from(moon_light);
+        let illuminance = lunar.illuminance_lux() * sun.moon_scale() * f64::from(moon_light);
         return (moon_direction_scene(lunar), illuminance as f32, true);
     }
     (
@@ -265,7 +272,7 @@ mod tests {
             };
             (disk(custom), disk(bare))
         };
-        // The first-quarter moon 36° up at 21:00 UTC on 2021-05-19, the sun 14° down.
+        // The first-quarter moon 40° up at 21:00 UTC on 2021-05-19, the sun 15° down (PyEphem).
         assert_eq!(
             at("2021-05-19T21:00:00Z"),
             (Some((0.02, 0.0)), Some((SunDisk::EARTH.angular_size, 0.0)))

@@ -241,8 +241,8 @@ fn the_moon_shows_its_phase_where_the_twin_draws_it() {
     let size = UVec2::new(160, 90);
     let fov_deg = 3.0f64;
     let ev100 = 10.0;
-    // 2021-05-19 21:00 UTC: the first-quarter moon 36° up in the south-west of Bern, the sun
-    // 14° below the horizon.
+    // 2021-05-19 21:00 UTC: the first-quarter moon 40° up in the south-west of Bern, the sun
+    // 15° below the horizon (PyEphem).
     let instant: UtcInstant = "2021-05-19T21:00:00Z".parse().unwrap();
     let t = instant.unix_seconds() as f64;
     let observer = Observer::from(&GeoOrigin::default());
