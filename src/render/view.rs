@@ -334,7 +334,7 @@ fn march_far_coverage(march: &mut MarchLayer, layer: &CloudLayer, camera: DVec3)
     march.far_count = count;
 }
 
-/// Per-view uniforms, laid out as `CloudUniforms` in `parameters.wgsl` (272 bytes).
+/// Per-view uniforms, laid out as `CloudUniforms` in `parameters.wgsl` (288 bytes).
 #[derive(ShaderType, Clone, Debug, Default)]
 pub(crate) struct GpuCloudUniforms {
     planet_radius_m: f32,
@@ -373,7 +373,11 @@ pub(crate) struct GpuCloudUniforms {
     shadow_map_axis_y: Vec4,
     shadow_map_range_m: Vec4,
     flash: Vec4,
+    peak_caps: Vec4,
 }
+
+// The peak's caps fill `peak_caps.xyz` and its angle's cosine `w`.
+const _: () = assert!(crate::reference::render::PEAK_ORDERS <= 3);
 
 /// f32 has no infinity the shader can compare safely: "never" is this (WGSL: `FAR_AWAY`).
 const FAR_AWAY: f32 = crate::reference::composite::FAR_AWAY as f32;
@@ -457,6 +461,16 @@ impl GpuCloudUniforms {
             } else {
                 0.0
             }),
+            peak_caps: {
+                let mut caps = [0.0; 4];
+                for (slot, cap) in caps.iter_mut().zip(phase.peak_caps) {
+                    *slot = cap as f32;
+                }
+                caps[3] = crate::reference::render::FORWARD_PEAK_DEG
+                    .to_radians()
+                    .cos() as f32;
+                Vec4::from_array(caps)
+            },
         }
     }
 
@@ -880,7 +894,7 @@ mod tests {
 
     #[test]
     fn gpu_structs_match_the_shader_layout() {
-        assert_eq!(GpuCloudUniforms::min_size().get(), 272);
+        assert_eq!(GpuCloudUniforms::min_size().get(), 288);
         assert_eq!(GpuCloudLayer::min_size().get(), 256);
     }
 

@@ -655,6 +655,7 @@ impl Ray<'_> {
                 sun_above_depth,
                 sky_light,
                 halo_share,
+                view_optical_depth: self.optical_depth,
             },
         );
         let flash = flash_source(settings, &self.phase, position, extinction);

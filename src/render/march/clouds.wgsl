@@ -140,6 +140,9 @@ struct QueuedSample {
     extinction: f32,
     // Medium.halo_share.
     halo_share: f32,
+    // The view ray's optical depth from the camera to the sample (Rust:
+    // `SampleLights::view_optical_depth`).
+    view_depth: f32,
     // Coefficients of the source's direct and scaled parts in the radiance (the scaled part's
     // also in `scaled_radiance`).
     weight: f32,
@@ -451,7 +454,7 @@ fn integrate_step(ray: ptr<function, MarchRay>, t: f32, dt: f32, medium: Medium,
     // Deep in the cloud, and past the true medium's cut-off, fewer light steps.
     let light_steps = light_steps_at((*ray).light_steps, (*ray).transmittance, cutoff_transmittance(ray), (*ray).cutoff);
     let ambient = select(medium.ambient, medium.sky_light_top, clouds.multiple_scattering != 0u);
-    light_queue[queued] = QueuedSample(ambient, medium.sky_light_bottom, t, medium.scattering, medium.column_above, medium.column_below, extinction, medium.halo_share, share * weight, share * scaled_weight, light_steps);
+    light_queue[queued] = QueuedSample(ambient, medium.sky_light_bottom, t, medium.scattering, medium.column_above, medium.column_below, extinction, medium.halo_share, (*ray).optical_depth, share * weight, share * scaled_weight, light_steps);
     (*ray).tail_a = queued;
     (*ray).tail_share_a = 1.0;
     (*ray).tail_b = NO_SAMPLE;
@@ -545,7 +548,7 @@ fn light_sample(ray: ptr<function, MarchRay>, sample: QueuedSample) -> SampleSou
             optical_depth = from_map;
         }
     }
-    var source = sample_source(sample.scattering, sample.column_above, sample.column_below, sample.ambient, sample.ambient, sample.sky_light_bottom, optical_depth, above, mu_sun, (*ray).cos_sun, (*ray).mu, sample.halo_share);
+    var source = sample_source(sample.scattering, sample.column_above, sample.column_below, sample.ambient, sample.ambient, sample.sky_light_bottom, optical_depth, above, mu_sun, (*ray).cos_sun, (*ray).mu, sample.halo_share, sample.view_depth);
     // A lightning flash's light, diffuse (Rust: `Ray::integrate`).
     source.scaled += vec3<f32>(sample.scattering * flash_source(position, sample.extinction));
     return source;

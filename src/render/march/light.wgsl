@@ -19,6 +19,8 @@
 
 // Rust: the constants of the same names in reference/render/light.rs; see their docs there.
 const MIN_DIFFUSE_MU_SUN: f32 = 0.02;
+// Orders of scattering within the forward peak after the first. Rust: `PEAK_ORDERS`.
+const PEAK_ORDERS: u32 = 2u;
 const MAX_LIGHT_STEPS: u32 = 64u;
 // Where each light-march step is sampled: its midpoint, whatever the view ray's jitter (an
 // average of e^-tau over offsets is biased bright). Rust: `LIGHT_SAMPLE_OFFSET`.
@@ -116,10 +118,12 @@ fn sample_source(
     cos_sun: f32,
     mu_view: f32,
     halo_share: f32,
+    view_depth: f32,
 ) -> SampleSource {
     var p = dual_lobe_phase(cos_sun, clouds.phase_g_forward, clouds.phase_g_back, clouds.phase_blend);
+    var halo = 0.0;
     if halo_share > 0.0 {
-        let halo = min(halo_share, 1.0);
+        halo = min(halo_share, 1.0);
         p = (1.0 - halo) * p + halo * halo_phase(cos_sun);
     }
     let sun = clouds.sun_illuminance.xyz;
@@ -156,15 +160,18 @@ fn sample_source(
         let mu0 = max(mu_sun, MIN_DIFFUSE_MU_SUN);
         let capped = min(p, clouds.forward_cap);
         let beam = exp(-(1.0 - f) * sun_depth);
-        peak = (p - capped) * exp(-sun_depth);
+        peak = ((p - capped) + (1.0 - halo) * peak_orders(cos_sun, sun_depth + max(view_depth, 0.0))) * exp(-sun_depth);
         wide = capped * beam;
         let through = exp(-(1.0 - f) * (sun_depth + column_below / mu0));
         let c1 = k * (3.0 * mu0 * mu0 + 2.0 * mu0 - through * (3.0 * mu0 * mu0 - 2.0 * mu0)) / transport;
         let c0 = k * (3.0 * mu0 * mu0 + 2.0 * mu0) - 2.0 / 3.0 * c1;
         let i1 = c1 - 3.0 * mu0 * k * beam;
         let i0 = c0 - one_minus_g * c1 * column_above - 3.0 * mu0 * mu0 * k * beam;
+        // Light going up: the flux the source-function integral leaves out.
+        let up = saturate(0.5 - 2.0 * mu_view);
+        let reflected = k * reflection_deficit(mu0) * (1.0 - through) * up;
         // The sun on the column's top, through the layers above.
-        diffuse = max(i0 + g_star * mu_view * i1, 0.0) * exp(-(1.0 - f) * sun_above_depth);
+        diffuse = max(i0 + g_star * mu_view * i1 + reflected, 0.0) * exp(-(1.0 - f) * sun_above_depth);
     }
     let top = clouds.ambient_top.xyz * sky_light_top;
     let bottom = clouds.ambient_bottom.xyz * sky_light_bottom;
@@ -174,6 +181,34 @@ fn sample_source(
     source.direct = scattering * sun * peak;
     source.scaled = scattering * (sun * (wide + (1.0 - f) * diffuse) + (1.0 - f) * sky);
     return source;
+}
+
+// The orders after the first of the light scattered within the forward peak, over a path of
+// optical depth path_depth (the sun's and the view's); 0 outside the peak. Rust: `peak_orders`.
+fn peak_orders(cos_sun: f32, path_depth: f32) -> f32 {
+    if cos_sun <= clouds.peak_caps.w || !(path_depth > 0.0) {
+        return 0.0;
+    }
+    let forward = clamp(clouds.phase_g_forward, -MAX_PHASE_G, MAX_PHASE_G);
+    let rate = clouds.forward_fraction * path_depth;
+    var weight = 1.0;
+    var g = forward;
+    var sum = 0.0;
+    for (var n = 0u; n < PEAK_ORDERS; n++) {
+        weight *= rate / f32(n + 1u);
+        g *= forward;
+        let p = dual_lobe_phase(cos_sun, g, clouds.phase_g_back, clouds.phase_blend);
+        sum += weight * max(p - clouds.peak_caps[n], 0.0);
+    }
+    return sum;
+}
+
+// How much more of the sun's diffuse source, in units of E / 4 pi, light going up takes so that
+// a semi-infinite cloud sends out the light that enters it. Rust: `reflection_deficit`.
+fn reflection_deficit(mu0_in: f32) -> f32 {
+    let mu0 = clamp(mu0_in, MIN_DIFFUSE_MU_SUN, 1.0);
+    let out = 4.0 * mu0 + 2.0 * mu0 * (3.0 * mu0 * mu0 - 1.0) * (1.0 - mu0 * log(1.0 + 1.0 / mu0));
+    return out - (3.0 * mu0 * mu0 + 2.0 * mu0);
 }
 
 // Distance to the exit of the shells that hold the point, toward the sun; negative when the

@@ -88,6 +88,10 @@ struct CloudUniforms {
     // xyz: a lightning flash's position relative to the camera, m; w: its luminous intensity, cd
     // (0: no flash). Rust: `MarchSettings::flash_position_m`, `flash_intensity_cd`.
     flash: vec4<f32>,
+    // xy: the phase's value at FORWARD_PEAK_DEG after one and two more scatterings in the
+    // forward lobe, 1/sr; w: the cosine of FORWARD_PEAK_DEG (Rust: `EddingtonPhase::peak_caps`,
+    // `FORWARD_PEAK_DEG`).
+    peak_caps: vec4<f32>,
 }
 
 // One cloud layer of the storage buffer, written by `GpuCloudLayer` (render/view.rs) from
