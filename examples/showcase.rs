@@ -7,8 +7,9 @@
 //!
 //! Writes `DIR/SCENE.png` (default `showcase/`, 1280×720) for the scenes of the `bench` example
 //! plus a view of cumulus from above the layer and a cirrostratus veil around the sun (its 22°
-//! halo), with the `HIGH` preset, after `N` frames of each
-//! scene (default 24), over which the temporal accumulation averages the jittered frames.
+//! halo), with the `HIGH` preset, after `N` frames of each scene (default 24), and at least
+//! until the temporal accumulation has settled (`common::accumulation_frames`: 128 frames at a
+//! quarter of the resolution), so the image shows no dotted edges of a half-filled upsampling.
 //! `--scene NAME` renders that scene alone. `--storm` renders the storm time-lapse instead: a
 //! cumulonimbus at dusk, one image per second of scene time for six seconds, side by side in
 //! `DIR/storm_strip.png`, with its lightning (a fixed rate and seed, so the strip repeats): the
@@ -34,7 +35,8 @@ struct Args {
     /// Image height, pixels.
     #[arg(long, default_value_t = 720, value_parser = clap::value_parser!(u32).range(1..))]
     height: u32,
-    /// Frames of each scene before its image is taken.
+    /// Frames of each scene before its image is taken (at least until the temporal
+    /// accumulation has settled).
     #[arg(long, default_value_t = 24, value_parser = clap::value_parser!(u32).range(1..))]
     frames: u32,
     /// Folder the images go to.
@@ -134,7 +136,10 @@ fn run(args: &Args) -> Result<(), String> {
     }
     for scene in scenes {
         scene.apply(app.world(), camera, sun);
-        app.run_frames(args.frames);
+        app.run_frames(
+            args.frames
+                .max(common::accumulation_frames(&scene.settings)),
+        );
         let pixels = app.read_target();
         let path = out.join(format!("{}.png", scene.name));
         pixels.save_png(&path, 1.0);
