@@ -466,9 +466,7 @@ impl GpuCloudUniforms {
                 for (slot, cap) in caps.iter_mut().zip(phase.peak_caps) {
                     *slot = cap as f32;
                 }
-                caps[3] = crate::reference::render::FORWARD_PEAK_DEG
-                    .to_radians()
-                    .cos() as f32;
+                caps[3] = phase.forward_peak_cos as f32;
                 Vec4::from_array(caps)
             },
         }

@@ -113,6 +113,8 @@ pub struct EddingtonPhase {
     pub forward_fraction: f64,
     /// The asymmetry of the phase without its peak, `g* = (g − f) / (1 − f)`.
     pub scaled_asymmetry: f64,
+    /// The cosine of [`FORWARD_PEAK_DEG`]: a view closer to the sun than that sees the peak.
+    pub forward_peak_cos: f64,
     /// The phase at [`FORWARD_PEAK_DEG`] from the forward direction, 1/sr.
     pub forward_cap: f64,
     /// The same for the phase after `k + 1` more scatterings in the forward lobe (`k` from 0 to
@@ -132,6 +134,7 @@ pub fn eddington_phase(settings: &MarchSettings) -> EddingtonPhase {
     EddingtonPhase {
         forward_fraction,
         scaled_asymmetry: (asymmetry - forward_fraction) / (1.0 - forward_fraction),
+        forward_peak_cos: cap,
         forward_cap: dual_lobe_phase(cap, forward, back, blend),
         peak_caps: std::array::from_fn(|k| {
             dual_lobe_phase(cap, forward.powi(k as i32 + 2), back, blend)
@@ -222,9 +225,9 @@ pub struct SampleLights {
 /// Integrated along the view rays, the two-stream source sends out of a semi-infinite
 /// conservative cloud less light than enters it (at `μ₀ = 1`, 94 %), though its fluxes conserve
 /// it; `Δ` is the constant that makes the light going out equal the light coming in. With it
-/// the reflection of a thick cloud of isotropic scatterers is within 2 % of the exact solution
-/// (Chandrasekhar 1960, "Radiative Transfer", its H functions) for a sun 20° or more up, where
-/// it was 7 % too dark. `1 − e_T` scales it down in a column the beam crosses mostly unscattered.
+/// the reflection of a thick cloud of isotropic scatterers is within 1 % of the exact solution
+/// (Chandrasekhar 1960, "Radiative Transfer", its H functions) for the sun 0°, 40° and 70° from
+/// the zenith, where it was 7 % too dark. `1 − e_T` scales it down in a column the beam crosses mostly unscattered.
 ///
 /// The sun's single scattering is split at [`EddingtonPhase::forward_cap`]: the peak above it,
 /// `E (p − p_cap)⁺ e^(−τs)`, is seen through the true medium; the rest, `E min(p, p_cap)
@@ -358,7 +361,7 @@ pub fn peak_orders(
     cos_sun: f64,
     path_depth: f64,
 ) -> f64 {
-    if cos_sun <= FORWARD_PEAK_DEG.to_radians().cos() || path_depth.is_nan() || path_depth <= 0.0 {
+    if cos_sun <= phase.forward_peak_cos || path_depth.is_nan() || path_depth <= 0.0 {
         return 0.0;
     }
     let forward = settings.phase_g_forward.clamp(-MAX_PHASE_G, MAX_PHASE_G);

@@ -279,7 +279,7 @@ fn the_light_under_a_deck_is_disorts_downward_flux() {
 
 /// Chandrasekhar's H function of conservative isotropic scattering (Chandrasekhar 1960,
 /// "Radiative Transfer", ch. V): `ln H(μ) = −(μ/π) ∫₀^∞ ln(1 − arctan(t)/t) / (1 + μ²t²) dt`,
-/// by the midpoint rule over `t = tan x` (`H(1)` = 2.9078 to five digits).
+/// by the midpoint rule over `t = tan x`.
 fn chandrasekhar_h(mu: f64) -> f64 {
     const N: u32 = 20_000;
     let dx = std::f64::consts::FRAC_PI_2 / f64::from(N);
@@ -300,7 +300,8 @@ fn chandrasekhar_h(mu: f64) -> f64 {
 /// integrated along the view, sent back 7 % too little.
 #[test]
 fn a_thick_cloud_reflects_as_chandrasekhars_exact_solution_says() {
-    assert!((chandrasekhar_h(1.0) - 2.9078).abs() < 1e-3);
+    // Chandrasekhar's table gives H(1) = 2.9078: the quadrature holds its four decimals.
+    assert!((chandrasekhar_h(1.0) - 2.9078).abs() < 5e-5);
     let isotropic = MarchSettings {
         phase_g_forward: 0.0,
         phase_g_back: 0.0,
