@@ -16,7 +16,8 @@
 //! the seed's 100 × 100 × 10, 128 × 128 × 16 and 256 × 256 × 16 cells, into `growth.csv`.
 //!
 //! Scenes: cumulus at noon, overcast stratus, sunset behind altocumulus, the camera inside a
-//! cumulus layer, and a grazing view to the horizon (`examples/common/scenes.rs`). Presets:
+//! cumulus layer, a grazing view to the horizon, and a cirrostratus veil with the sun in view
+//! (`examples/common/scenes.rs`, `bench_scenes`). Presets:
 //! `LOW`, `MEDIUM`, `HIGH`, `ULTRA`; the reference marches 512 steps per ray with 64 light
 //! steps, no jitter and no early exit, at full resolution.
 //!
@@ -82,7 +83,8 @@ use bevy_cloudscape::{
     render::march::{CloudSun, march_inputs},
 };
 use common::scenes::{
-    CloudRig, Scene, luminance, save_strip, showcase_scenes, small_recipe, sun_direction,
+    CloudRig, Scene, layer, looking, luminance, save_strip, showcase_scenes, small_recipe,
+    sun_direction,
 };
 use report::{Row, performance_md, plot, to_csv};
 use truth::TruthRow;
@@ -300,7 +302,9 @@ fn presets() -> [(&'static str, VolumetricClouds); 4] {
     ]
 }
 
-/// The five bench scenes: the showcase four and a grazing view along the horizon.
+/// The six bench scenes: the showcase four, a grazing view along the horizon, and a veil of
+/// cirrostratus with the sun in the view (an optically thin layer, whose rays never reach the
+/// early exit).
 fn bench_scenes() -> Vec<Scene> {
     let mut scenes = showcase_scenes();
     let mut grazing = showcase_scenes().remove(0);
@@ -308,6 +312,12 @@ fn bench_scenes() -> Vec<Scene> {
     grazing.camera = Transform::from_xyz(0.0, 2.0, 0.0)
         .looking_to(Vec3::new(0.0, 1.5f32.to_radians().tan(), -1.0), Vec3::Y);
     scenes.push(grazing);
+    let mut veil = showcase_scenes().remove(0);
+    veil.name = "cirrostratus_halo";
+    veil.camera = looking(Vec3::new(0.0, 2.0, 0.0), 35.0, 150.0);
+    veil.sun_deg = (35.0, 150.0);
+    veil.layers = vec![layer(CloudKind::Cirrostratus, 1.0)];
+    scenes.push(veil);
     scenes
 }
 

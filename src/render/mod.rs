@@ -282,6 +282,14 @@ pub struct VolumetricClouds {
     /// paths are longest. `f32::INFINITY`, 0 or less, or NaN: no limit. Default 2 (`ULTRA` no
     /// limit).
     pub light_steps_per_footprint: f32,
+    /// Most optical depth one light-march step spans where the layers its path reaches are at
+    /// their peak extinction. A light path whose length times those peak extinctions is small
+    /// takes fewer than [`VolumetricClouds::light_steps`] (at least 1), since a few steps give
+    /// its transmittance as well as many: a veil of cirrostratus takes two to six instead of
+    /// all of them, and a thick cloud never reaches the limit
+    /// ([`optically_thin_light_steps`](crate::reference::render::optically_thin_light_steps)).
+    /// NaN, 0 or less, or infinity: no limit. Default 0.125 (`ULTRA` no limit).
+    pub light_step_optical_depth: f32,
     /// Share of [`VolumetricClouds::light_steps`] a view ray 60° or more from the sun takes
     /// (0–1): within about 32° of the sun a ray takes all of them, and linearly fewer between.
     /// Away from the sun the phase function sends a sample's direct sunlight toward the camera
@@ -354,6 +362,7 @@ impl VolumetricClouds {
         sun_from_shadow_map_m: 0.0,
         min_step_m: 25.0,
         light_steps_per_footprint: 2.0,
+        light_step_optical_depth: crate::reference::render::LIGHT_STEP_OPTICAL_DEPTH as f32,
         light_steps_away_from_sun: 0.5,
         weather_map_size: crate::reference::weather_map::DEFAULT_WEATHER_MAP_SIZE,
         reset_history: false,
@@ -381,6 +390,7 @@ impl VolumetricClouds {
         light_shaft_resolution_scale: 0.5,
         min_step_m: 5.0,
         light_steps_per_footprint: f32::INFINITY,
+        light_step_optical_depth: f32::INFINITY,
         light_steps_away_from_sun: 1.0,
         sun_from_shadow_map_m: f32::INFINITY,
         ..Self::MEDIUM
@@ -417,6 +427,7 @@ impl VolumetricClouds {
                 f64::from(self.sun_from_shadow_map_m.max(0.0))
             },
             light_steps_per_footprint: f64::from(self.light_steps_per_footprint),
+            light_step_optical_depth: f64::from(self.light_step_optical_depth),
             ..MarchSettings::default()
         }
     }
@@ -475,7 +486,8 @@ impl VolumetricClouds {
     /// - `min_step_m`: a negative or non-finite value becomes 0 (every primary step marched).
     /// - `light_steps_away_from_sun`: clamped to 0–1; NaN becomes 1 (every light step).
     ///
-    /// `light_steps_per_footprint` takes any value (NaN, 0 or less, or infinity: no limit).
+    /// `light_steps_per_footprint` and `light_step_optical_depth` take any value (NaN, 0 or
+    /// less, or infinity: no limit).
     pub fn sanitize(&mut self) {
         use crate::clean::{clamp_or, non_negative};
         use crate::reference::{

@@ -362,7 +362,7 @@ pub(crate) struct GpuCloudUniforms {
     light_steps_per_footprint: f32,
     light_steps_away_from_sun: f32,
     clear_air: u32,
-    _pad2: u32,
+    light_step_optical_depth: f32,
     camera_up: Vec4,
     sun_direction: Vec4,
     sun_illuminance: Vec4,
@@ -443,7 +443,14 @@ impl GpuCloudUniforms {
                 settings.light_steps_away_from_sun,
             ),
             clear_air: u32::from(settings.clear_air),
-            _pad2: 0,
+            // 0: no limit.
+            light_step_optical_depth: if settings.light_step_optical_depth > 0.0
+                && settings.light_step_optical_depth < f64::from(FAR_AWAY)
+            {
+                settings.light_step_optical_depth as f32
+            } else {
+                0.0
+            },
             camera_up: vec4(settings.camera_up),
             sun_direction: vec4(settings.sun_direction),
             sun_illuminance: vec4(settings.sun_illuminance),

@@ -111,6 +111,11 @@ pub struct MarchSettings {
     /// footprint, so light steps much shorter than it resample the same blur. Never fewer than
     /// [`MarchSettings::light_steps`]. Infinity (the default), 0 or less, or NaN: no limit.
     pub light_steps_per_footprint: f64,
+    /// Most optical depth one light-march step may span where the layers its path reaches are
+    /// at their peak extinction ([`optically_thin_light_steps`]): an optically thin path (a
+    /// veil of cirrostratus) takes fewer than [`MarchSettings::light_steps`]. Infinity (the
+    /// default), 0 or less, or NaN: no limit.
+    pub light_step_optical_depth: f64,
     /// Share of [`MarchSettings::light_steps`] a view ray 60° or more from the sun takes, 0–1
     /// (all of them within about 32° of it, linear between: [`ray_light_steps`]). Default 1:
     /// every ray takes them all.
@@ -149,6 +154,7 @@ impl Default for MarchSettings {
             sun_from_shadow_map_m: f64::INFINITY,
             min_step_m: 0.0,
             light_steps_per_footprint: f64::INFINITY,
+            light_step_optical_depth: f64::INFINITY,
             light_steps_away_from_sun: 1.0,
             flash_position_m: [0.0; 3],
             flash_intensity_cd: 0.0,

@@ -256,6 +256,37 @@ fn light_step_count(light_steps: u32, distance_m: f32, footprint_m: f32, jitter:
     return min(max(light_steps, extra), MAX_LIGHT_STEPS);
 }
 
+// The most light-march steps an optically thin path needs: its length times the summed peak
+// extinction of the active layers whose shells its altitudes reach, over
+// clouds.light_step_optical_depth (0: no limit), rounded down after adding the jitter, at
+// least 1. Rust: `optically_thin_light_steps`.
+fn optically_thin_light_steps(altitude_m: f32, mu_sun: f32, distance_m: f32, jitter: f32) -> u32 {
+    let max_step_depth = clouds.light_step_optical_depth;
+    if !(max_step_depth > 0.0) {
+        return MAX_LIGHT_STEPS;
+    }
+    let radius = clouds.planet_radius_m;
+    let end = altitude_along_ray(altitude_m, mu_sun, distance_m, radius);
+    var low = min(altitude_m, end);
+    let high = max(altitude_m, end);
+    let lowest_at = -(radius + altitude_m) * mu_sun;
+    if lowest_at > 0.0 && lowest_at < distance_m {
+        low = min(low, altitude_along_ray(altitude_m, mu_sun, lowest_at, radius));
+    }
+    var peak = 0.0;
+    let count = cloud_layer_count();
+    for (var i = 0u; i < count; i++) {
+        if layer_is_active(i) && cloud_layers[i].top_m >= low && cloud_layers[i].base_m <= high {
+            peak += cloud_layers[i].extinction;
+        }
+    }
+    let steps = floor(peak * distance_m / max_step_depth + jitter);
+    if !(steps <= f32(MAX_LIGHT_STEPS)) {
+        return MAX_LIGHT_STEPS;
+    }
+    return u32(max(steps, 1.0));
+}
+
 // The point s metres toward the sun from `position_m` (at `altitude_m`, the sun at `mu_sun`
 // there): xy its coordinates along the horizontal `axes`, z its altitude. Rust: `sun_ray_point`.
 fn sun_ray_point(axes: HorizontalAxes, position_m: vec3<f32>, altitude_m: f32, mu_sun: f32, s: f32) -> vec3<f32> {
@@ -276,7 +307,7 @@ fn sun_optical_depth(h: f32, up: vec3<f32>, position_m: vec3<f32>, altitude_m: f
         return -1.0;
     }
     let distance = min(full_distance, max_distance_m);
-    let steps = light_step_count(light_steps, distance, footprint_m, jitter);
+    let steps = min(light_step_count(light_steps, distance, footprint_m, jitter), optically_thin_light_steps(altitude_m, mu_sun, distance, jitter));
     if steps == 0u || distance == 0.0 {
         return 0.0;
     }

@@ -67,7 +67,9 @@ struct CloudUniforms {
     // 1: the clouds fade into what lies behind them by the clear air's transmittance to them
     // (Rust: `MarchSettings::clear_air`).
     clear_air: u32,
-    pad_c: u32,
+    // Most optical depth one light-march step spans at the layers' peak extinction (Rust:
+    // `MarchSettings::light_step_optical_depth`; 0: no limit).
+    light_step_optical_depth: f32,
     // xyz: unit vector from the planet centre through the camera.
     camera_up: vec4<f32>,
     // xyz: unit vector toward the sun, world space.
