@@ -7,8 +7,8 @@ use super::BROAD_WARP_PERIODS;
 use super::{
     LIGHT_STEP_SPAN_M, PRECIPITATION_ABSORPTION, SHADOW_MAP_NEAR_STEPS, SHADOW_MAP_NEAR_TEXELS,
     coverage_height_scale, density_at, flash_source, horizontal_axes, interval_steps,
-    layer_coverage, light_step_count, march_clouds, patch_fill, ray_light_steps, ray_start_jitter,
-    sample_source, shape_warp,
+    layer_coverage, light_step_count, march_clouds, optically_thin_light_steps, patch_fill,
+    ray_light_steps, ray_start_jitter, sample_source, shape_warp,
 };
 #[cfg(doc)]
 use crate::reference::shadow::ShadowMapImage;
