@@ -90,16 +90,13 @@ impl CloudKind {
             Self::Cumulonimbus => (1_000.0, 10_000.0, 0.3, 0.1, 30_000.0, 0.2),
         };
         // Heaps grow tallest where the weather is most cloudy and round off toward their edges;
-        // a broken stratus thins toward the edges of its patches (fractostratus), so it stands
-        // as no wall of one height; the high sheets keep a level top.
+        // sheets keep a level top.
         let coverage_height = match self {
             Self::Cumulus => 1.0,
-            Self::Stratocumulus
-            | Self::Stratus
-            | Self::Altocumulus
-            | Self::Cirrocumulus
-            | Self::Cumulonimbus => 0.5,
-            Self::Altostratus | Self::Cirrus | Self::Cirrostratus => 0.0,
+            Self::Stratocumulus | Self::Altocumulus | Self::Cirrocumulus | Self::Cumulonimbus => {
+                0.5
+            }
+            Self::Stratus | Self::Altostratus | Self::Cirrus | Self::Cirrostratus => 0.0,
         };
         KindDefaults {
             base_m,

@@ -151,13 +151,11 @@ impl DensityProfile {
         ])
     }
 
-    /// Stratus: a thin slab with full density from a tenth of the way up to the middle, a short
-    /// fade at the base and a long one over the upper half, where the noise's erosion sets
-    /// each patch's top: the top undulates by tens of metres rather than standing as a flat
-    /// lid, which seen edge-on from a hill at its height drew a straight line across the view.
+    /// Stratus: a thin, flat slab with full density from a tenth of the way up to a tenth from
+    /// the top, and short fades at both edges.
     #[must_use]
     pub fn stratus() -> Self {
-        Self::smooth(&[(0.0, 0.0), (0.1, 1.0), (0.5, 1.0), (1.0, 0.0)])
+        Self::smooth(&[(0.0, 0.0), (0.1, 1.0), (0.9, 1.0), (1.0, 0.0)])
     }
 
     /// Ground fog: full density from the ground up, fading out over the upper half, so the fog
