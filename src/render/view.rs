@@ -393,6 +393,16 @@ fn inverse_axis(axis: [f64; 3]) -> Vec4 {
     }
 }
 
+/// A limit the shader reads as "0: no limit": the value where it is positive and below
+/// [`FAR_AWAY`], 0 for anything else (NaN, 0 or less, infinity).
+fn limit_or_none(limit: f64) -> f32 {
+    if limit > 0.0 && limit < f64::from(FAR_AWAY) {
+        limit as f32
+    } else {
+        0.0
+    }
+}
+
 fn vec4(xyz: [f64; 3]) -> Vec4 {
     Vec4::new(xyz[0] as f32, xyz[1] as f32, xyz[2] as f32, 0.0)
 }
@@ -431,26 +441,12 @@ impl GpuCloudUniforms {
             min_step_m: settings.min_step_m as f32,
             sample_offset_uv: Vec2::ZERO,
             march_uv_scale: Vec2::ONE,
-            // 0: no limit.
-            light_steps_per_footprint: if settings.light_steps_per_footprint > 0.0
-                && settings.light_steps_per_footprint < f64::from(FAR_AWAY)
-            {
-                settings.light_steps_per_footprint as f32
-            } else {
-                0.0
-            },
+            light_steps_per_footprint: limit_or_none(settings.light_steps_per_footprint),
             light_steps_away_from_sun: crate::reference::render::away_from_sun_share(
                 settings.light_steps_away_from_sun,
             ),
             clear_air: u32::from(settings.clear_air),
-            // 0: no limit.
-            light_step_optical_depth: if settings.light_step_optical_depth > 0.0
-                && settings.light_step_optical_depth < f64::from(FAR_AWAY)
-            {
-                settings.light_step_optical_depth as f32
-            } else {
-                0.0
-            },
+            light_step_optical_depth: limit_or_none(settings.light_step_optical_depth),
             camera_up: vec4(settings.camera_up),
             sun_direction: vec4(settings.sun_direction),
             sun_illuminance: vec4(settings.sun_illuminance),

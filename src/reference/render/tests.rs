@@ -851,12 +851,16 @@ fn an_optically_thin_light_path_takes_few_steps() {
     let light_steps = 24;
     for elevation_deg in [15.0f64, 40.0, 70.0] {
         let e = elevation_deg.to_radians();
-        let settings = MarchSettings {
+        // Without the bound (the default) and with it.
+        let every = MarchSettings {
             sun_direction: [0.0, e.sin(), -e.cos()],
-            light_step_optical_depth: LIGHT_STEP_OPTICAL_DEPTH,
             ..MarchSettings::default()
         };
-        let radius = settings.planet_radius_m;
+        let bounded = MarchSettings {
+            light_step_optical_depth: LIGHT_STEP_OPTICAL_DEPTH,
+            ..every
+        };
+        let radius = every.planet_radius_m;
         let axes = horizontal_axes(UP);
         let (mut error, mut unbounded, mut sum, mut steps, mut full) = (0.0, 0.0, 0.0, 0.0, 0.0);
         let points = 128;
@@ -866,8 +870,8 @@ fn an_optically_thin_light_path_takes_few_steps() {
                 7_520.0 + 7.6 * f64::from(i),
                 -53.0 * f64::from(i),
             ];
-            let altitude = altitude_of(&settings, position);
-            let mu = point_mu_sun(&settings, 0.0, UP, position, altitude);
+            let altitude = altitude_of(&every, position);
+            let mu = point_mu_sun(&every, 0.0, UP, position, altitude);
             let distance = light_march_distance(&layers, radius, altitude, mu);
             // The fine quadrature: 2048 equal midpoint steps of the full-detail extinction.
             let n = 2048;
@@ -875,69 +879,45 @@ fn an_optically_thin_light_path_takes_few_steps() {
             let fine: f64 = (0..n)
                 .map(|k| {
                     let s = (f64::from(k) + 0.5) * ds;
-                    let point = add(position, scale(settings.sun_direction, s));
+                    let point = add(position, scale(every.sun_direction, s));
                     let height = altitude_along_ray(altitude, mu, s, radius);
                     let horizontal = [dot(point, axes[0]), dot(point, axes[1])];
                     total_extinction(textures(), &layers, horizontal, height, ds, true) * ds
                 })
                 .sum();
             let jitter = (f64::from(i) * 0.618_034).fract();
-            let depth = sun_optical_depth(
-                textures(),
-                &settings,
-                &layers,
-                0.0,
-                UP,
-                position,
-                altitude,
-                0.0,
-                f64::INFINITY,
-                light_steps,
-                LIGHT_SAMPLE_OFFSET,
-                jitter,
-            );
-            error += ((-depth).exp() - (-fine).exp()).abs();
-            // The same march without the bound: every step on D (k / n)^2.
-            let n = light_step_count(light_steps, distance, 0.0, f64::INFINITY, jitter);
-            let every: f64 = (0..n)
-                .map(|k| {
-                    let s0 = distance * (f64::from(k) / f64::from(n)).powi(2);
-                    let s1 = distance * (f64::from(k + 1) / f64::from(n)).powi(2);
-                    let s = 0.5 * (s0 + s1);
-                    let point = add(position, scale(settings.sun_direction, s));
-                    let height = altitude_along_ray(altitude, mu, s, radius);
-                    let horizontal = [dot(point, axes[0]), dot(point, axes[1])];
-                    total_extinction(textures(), &layers, horizontal, height, s1 - s0, true)
-                        * (s1 - s0)
-                })
-                .sum();
-            unbounded += ((-every).exp() - (-fine).exp()).abs();
-            sum += (-fine).exp();
-            steps += f64::from(
-                optically_thin_light_steps(
+            let transmittance = |settings: &MarchSettings| {
+                let depth = sun_optical_depth(
+                    textures(),
+                    settings,
                     &layers,
-                    radius,
+                    0.0,
+                    UP,
+                    position,
                     altitude,
-                    mu,
-                    distance,
-                    LIGHT_STEP_OPTICAL_DEPTH,
-                    jitter,
-                )
-                .min(light_step_count(
-                    light_steps,
-                    distance,
                     0.0,
                     f64::INFINITY,
+                    light_steps,
+                    LIGHT_SAMPLE_OFFSET,
                     jitter,
-                )),
-            );
-            full += f64::from(light_step_count(
-                light_steps,
+                );
+                (-depth).exp()
+            };
+            error += (transmittance(&bounded) - (-fine).exp()).abs();
+            unbounded += (transmittance(&every) - (-fine).exp()).abs();
+            sum += (-fine).exp();
+            let all = light_step_count(light_steps, distance, 0.0, f64::INFINITY, jitter);
+            let thin = optically_thin_light_steps(
+                &layers,
+                radius,
+                altitude,
+                mu,
                 distance,
-                0.0,
-                f64::INFINITY,
+                LIGHT_STEP_OPTICAL_DEPTH,
                 jitter,
-            ));
+            );
+            steps += f64::from(thin.min(all));
+            full += f64::from(all);
         }
         let (error, unbounded) = (error / sum, unbounded / sum);
         let (steps, full) = (steps / f64::from(points), full / f64::from(points));
