@@ -383,10 +383,10 @@ pub fn peak_orders(
 /// of the sun's light the column turns into diffuse light, for the sun's cosine `mu0` and the
 /// scaled beam `through` left after the column (`e_T`, 0–1).
 ///
-/// Eddington's `q = 3μ₀ (μ₀ + 2/3)` makes a thick deck transmit and reflect in proportion to
-/// `μ₀ + 2/3`, the extrapolation length of Marshak's boundary condition. Against DISORT that
-/// grows too slowly as the sun sinks: a thick deck under a sun 85° from the zenith came out
-/// 15–21 % too bright from below and from above, and 2–5 % under a sun at 70°. The quadrature
+/// Eddington's `q = 3μ₀ (μ₀ + 2/3)` makes a thick deck transmit and reflect, per unit of the
+/// sun's light falling on it, in proportion to `μ₀ + 2/3`, with `2/3` the extrapolation length of Marshak's boundary condition. Against DISORT that
+/// falls too slowly as the sun sinks, and thick decks under a low sun come out too bright from
+/// below and from above (`validation/README.md` has the figures). The quadrature
 /// two-stream's extrapolation length `1/√3` (Meador & Weaver 1980, "Two-stream approximations to
 /// radiative transfer in planetary atmospheres") follows DISORT's decks far closer, so the part
 /// of the diffuse light the column has scattered, `1 − e_T`, takes `3μ₀ (μ₀ + 1/√3)`, scaled to
