@@ -216,7 +216,7 @@ pub struct SampleLights {
 /// `C₁ = k (q − e_T (3μ₀² − 2μ₀)) / (4/3 + (1 − g)(τa + τb))`, `e_T` the beam's scaled
 /// transmittance through the whole column, `C₀ = k q − 2C₁/3`, and `q` Eddington's `3μ₀² + 2μ₀`
 /// for the beam still passing and the quadrature two-stream's for the light the column has
-/// scattered ([`sun_diffuse_injection`]). For the sky (the
+/// scattered ([`sun_diffuse_constants`]). For the sky (the
 /// isotropic radiances [`MarchSettings::ambient_top`] on the column's top and
 /// [`MarchSettings::ambient_bottom`] on its base, times the sample's [`SampleLights::sky_light`]): `I₁ = (A_t − A_b) / (4/3 + (1 − g)(τa + τb))`,
 /// `I₀ = A_t − (2/3 + (1 − g) τa) I₁`. The diffuse source is `I₀ + g* μ I₁`.
@@ -326,9 +326,7 @@ pub fn sample_source(
             * (-depth).exp();
         wide = capped * beam;
         let through = (-(1.0 - f) * (depth + column.below / mu0)).exp();
-        let injected = sun_diffuse_injection(mu0, through);
-        let c1 = k * (injected - through * (3.0 * mu0 * mu0 - 2.0 * mu0)) / transport;
-        let c0 = k * injected - 2.0 / 3.0 * c1;
+        let [c0, c1] = sun_diffuse_constants(mu0, through, transport).map(|c| k * c);
         let i1 = c1 - 3.0 * mu0 * k * beam;
         let i0 = c0 - one_minus_g * c1 * column.above - 3.0 * mu0 * mu0 * k * beam;
         // Light going up: the flux the source-function integral leaves out.
@@ -378,28 +376,31 @@ pub fn peak_orders(
     sum
 }
 
-/// The term `q(μ₀)` of the sun's diffuse field in [`sample_source`] and [`deck_irradiance`]
-/// (`C₁ = k (q − e_T (3μ₀² − 2μ₀)) / (4/3 + (1 − g)(τa + τb))`, `C₀ = k q − 2C₁/3`): how much
-/// of the sun's light the column turns into diffuse light, for the sun's cosine `mu0` and the
-/// scaled beam `through` left after the column (`e_T`, 0–1).
+/// The constants `[C₀, C₁]` of the sun's diffuse field in [`sample_source`] and
+/// [`deck_irradiance`], in units of `k E` (`k = 1/4π`), for the sun's cosine `mu0`, the scaled
+/// beam `through` left after the column (`e_T`, 0–1) and `transport` `= 4/3 + (1 − g)(τa + τb)`:
+/// `C₁ = (q − e_T (3μ₀² − 2μ₀)) / transport` and `C₀ = q − 2C₁/3`, with `q` how much of the
+/// sun's light the column turns into diffuse light.
 ///
 /// Eddington's `q = 3μ₀ (μ₀ + 2/3)` makes a thick deck transmit and reflect, per unit of the
-/// sun's light falling on it, in proportion to `μ₀ + 2/3`, with `2/3` the extrapolation length of Marshak's boundary condition. Against DISORT that
-/// falls too slowly as the sun sinks, and thick decks under a low sun come out too bright from
-/// below and from above (`validation/README.md` has the figures). The quadrature
-/// two-stream's extrapolation length `1/√3` (Meador & Weaver 1980, "Two-stream approximations to
+/// sun's light falling on it, in proportion to `μ₀ + 2/3`, with `2/3` the extrapolation length
+/// of Marshak's boundary condition. Against DISORT that falls too slowly as the sun sinks, and
+/// thick decks under a low sun come out too bright from below and from above. The quadrature
+/// two-stream's `1/√3` in its place (Meador & Weaver 1980, "Two-stream approximations to
 /// radiative transfer in planetary atmospheres") follows DISORT's decks far closer, so the part
-/// of the diffuse light the column has scattered, `1 − e_T`, takes `3μ₀ (μ₀ + 1/√3)`, scaled to
-/// Eddington's at `μ₀ = 1` (a sun overhead is unchanged), and the rest keeps Eddington's (a thin
-/// column's light is mostly scattered once or twice and Eddington's fits it better):
-/// `q = e_T 3μ₀ (μ₀ + 2/3) + (1 − e_T) 3μ₀ (μ₀ + 1/√3) (5/3) / (1 + 1/√3)`.
-/// `validation/README.md` has the decks before and after. WGSL twin: `sun_diffuse_injection`.
-pub fn sun_diffuse_injection(mu0: f64, through: f64) -> f64 {
+/// of the light the column has scattered, `1 − e_T`, takes `3μ₀ (μ₀ + 1/√3)`, scaled to
+/// Eddington's at `μ₀ = 1` (a sun overhead is unchanged), and the beam still passing keeps
+/// Eddington's (a thin column's light is mostly scattered once or twice, and Eddington's fits
+/// it better): `q = e_T 3μ₀ (μ₀ + 2/3) + (1 − e_T) 3μ₀ (μ₀ + 1/√3) (5/3) / (1 + 1/√3)`.
+/// `validation/README.md` has the decks before and after. WGSL twin: `sun_diffuse_constants`.
+pub fn sun_diffuse_constants(mu0: f64, through: f64, transport: f64) -> [f64; 2] {
     let through = through.clamp(0.0, 1.0);
     let quadrature = 1.0 / 3f64.sqrt();
     let eddington = 3.0 * mu0 * (mu0 + 2.0 / 3.0);
     let scattered = 3.0 * mu0 * (mu0 + quadrature) * (5.0 / 3.0) / (1.0 + quadrature);
-    through * eddington + (1.0 - through) * scattered
+    let injected = through * eddington + (1.0 - through) * scattered;
+    let c1 = (injected - through * (3.0 * mu0 * mu0 - 2.0 * mu0)) / transport;
+    [injected - 2.0 / 3.0 * c1, c1]
 }
 
 /// `Δ(μ₀)` of [`sample_source`]: how much more of the sun's diffuse source, in units of
@@ -839,9 +840,7 @@ pub fn deck_irradiance(
         let mu0 = mu_sun.max(MIN_DIFFUSE_MU_SUN);
         let k = 0.25 / PI * sun;
         let beam = (-(1.0 - f) * tau / mu0).exp();
-        let injected = sun_diffuse_injection(mu0, beam);
-        let c1 = k * (injected - beam * (3.0 * mu0 * mu0 - 2.0 * mu0)) / transport;
-        let c0 = k * injected - 2.0 / 3.0 * c1;
+        let [c0, c1] = sun_diffuse_constants(mu0, beam, transport).map(|c| k * c);
         let i1 = c1 - 3.0 * mu0 * k * beam;
         let i0 = c0 - one_minus_g * c1 * tau - 3.0 * mu0 * mu0 * k * beam;
         irradiance.direct = mu_sun * sun * (-tau / mu_sun).exp();

@@ -163,9 +163,9 @@ fn sample_source(
         peak = ((p - capped) + (1.0 - halo) * peak_orders(cos_sun, sun_depth + max(view_depth, 0.0))) * exp(-sun_depth);
         wide = capped * beam;
         let through = exp(-(1.0 - f) * (sun_depth + column_below / mu0));
-        let injected = sun_diffuse_injection(mu0, through);
-        let c1 = k * (injected - through * (3.0 * mu0 * mu0 - 2.0 * mu0)) / transport;
-        let c0 = k * injected - 2.0 / 3.0 * c1;
+        let constants = k * sun_diffuse_constants(mu0, through, transport);
+        let c0 = constants.x;
+        let c1 = constants.y;
         let i1 = c1 - 3.0 * mu0 * k * beam;
         let i0 = c0 - one_minus_g * c1 * column_above - 3.0 * mu0 * mu0 * k * beam;
         // Light going up: the flux the source-function integral leaves out.
@@ -184,15 +184,18 @@ fn sample_source(
     return source;
 }
 
-// How much of the sun's light the column turns into diffuse light: Eddington's 3 mu0 (mu0 + 2/3)
-// for the beam still passing through (`through`), the quadrature two-stream's 3 mu0 (mu0 + 1/sqrt 3)
-// scaled to Eddington's at mu0 = 1 for the part scattered. Rust: `sun_diffuse_injection`.
-fn sun_diffuse_injection(mu0: f32, through_in: f32) -> f32 {
+// The sun's diffuse field's (C0, C1) over k: C1 = (q - through (3 mu0^2 - 2 mu0)) / transport,
+// C0 = q - 2 C1 / 3, with q Eddington's 3 mu0 (mu0 + 2/3) for the beam still passing through
+// and the quadrature two-stream's 3 mu0 (mu0 + 1/sqrt 3), scaled to Eddington's at mu0 = 1, for
+// the part scattered. Rust: `sun_diffuse_constants`.
+fn sun_diffuse_constants(mu0: f32, through_in: f32, transport: f32) -> vec2<f32> {
     let through = saturate(through_in);
     let quadrature = 0.57735026918962576;
     let eddington = 3.0 * mu0 * (mu0 + 2.0 / 3.0);
     let scattered = 3.0 * mu0 * (mu0 + quadrature) * (5.0 / 3.0) / (1.0 + quadrature);
-    return through * eddington + (1.0 - through) * scattered;
+    let injected = through * eddington + (1.0 - through) * scattered;
+    let c1 = (injected - through * (3.0 * mu0 * mu0 - 2.0 * mu0)) / transport;
+    return vec2<f32>(injected - 2.0 / 3.0 * c1, c1);
 }
 
 // The orders after the first of the light scattered within the forward peak, over a path of

@@ -248,7 +248,7 @@ fn slab_radiances_against_disort() {
 /// The validation's 5 % target where the light meets it: every view of every deck from optical
 /// depth 8 on, under a sun up to 70° from the zenith, sky off and on. Decks this thick are lit
 /// by light scattered many times, which the quadrature two-stream's dependence on the sun's
-/// cosine carries ([`sun_diffuse_injection`]); with Eddington's, thick decks under a sun 70°
+/// cosine carries ([`sun_diffuse_constants`]); with Eddington's, thick decks under a sun 70°
 /// from the zenith seen from above are beyond the target.
 #[test]
 fn thick_decks_under_a_sun_up_to_70_degrees_meet_the_target() {
