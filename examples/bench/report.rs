@@ -398,12 +398,14 @@ fn push_truth_table(md: &mut String, truth: &[TruthRow]) {
     let scenes = first_seen(truth.iter().map(|r| r.scene.as_str()));
     let presets = first_seen(truth.iter().map(|r| r.preset.as_str()));
     let jitters = truth.iter().map(|r| r.jitters).max().unwrap_or(1);
+    let subpixels = bevy_cloudscape::reference::truth::SUBPIXELS.pow(2);
     md.push_str(&format!(
         "\n## Against the path-traced truth\n\nEach preset's march of the three cumulus scenes \
          that Mitsuba 3 path-traced from the crate's own density field (`validation/mitsuba/`, \
          `validation/README.md`): the CPU twin, which the GPU march is tested against, with the \
-         preset's steps and knobs, each pixel the mean of {jitters} jitter offsets as the \
-         temporal accumulation averages them (`truth.csv`). Each cell is the relative RMSE of \
+         preset's steps and knobs, each pixel the mean over {subpixels} points of its area (as \
+         Mitsuba's box filter averages it) and {jitters} jitter offsets (as the temporal \
+         accumulation averages them) (`truth.csv`). Each cell is the relative RMSE of \
          the luminance against Mitsuba's image and, in brackets, the mean brightness's error; \
          the last row is the error of the ratio of the base's mean brightness (from below) to \
          the top's (from above).\n\n"

@@ -124,9 +124,15 @@ pub fn converged_settings(scene: &Scene) -> MarchSettings {
     )
 }
 
-/// The view ray through pixel `(i, j)` (row 0 at the top), as Mitsuba's `look_at` camera with a
-/// horizontal field of view.
-pub fn pixel_direction(scene: &Scene, i: u32, j: u32) -> [f64; 3] {
+/// Sub-pixel rays per axis of each pixel of [`crate_image`]: Mitsuba's film (a box filter)
+/// averages each pixel's radiance over its whole area, which at 32 × 18 pixels holds the edges of
+/// many clouds, so the twin's pixel is the mean over a stratified grid of this many rays squared.
+pub const SUBPIXELS: u32 = 2;
+
+/// The view ray through the point `(x, y)` of the image, in pixels from its top-left corner
+/// (`(i + ½, j + ½)` is the centre of pixel `(i, j)`, row 0 at the top), as Mitsuba's `look_at`
+/// camera with a horizontal field of view.
+pub fn pixel_direction(scene: &Scene, x: f64, y: f64) -> [f64; 3] {
     let f = scene.forward;
     let norm = |v: [f64; 3]| {
         let length = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
@@ -140,49 +146,55 @@ pub fn pixel_direction(scene: &Scene, i: u32, j: u32) -> [f64; 3] {
     ];
     let tan_x = (0.5 * FOV_DEG).to_radians().tan();
     let tan_y = tan_x * f64::from(HEIGHT) / f64::from(WIDTH);
-    let x = (2.0 * (f64::from(i) + 0.5) / f64::from(WIDTH) - 1.0) * tan_x;
-    let y = (1.0 - 2.0 * (f64::from(j) + 0.5) / f64::from(HEIGHT)) * tan_y;
+    let x = (2.0 * x / f64::from(WIDTH) - 1.0) * tan_x;
+    let y = (1.0 - 2.0 * y / f64::from(HEIGHT)) * tan_y;
     norm(std::array::from_fn(|c| f[c] + x * right[c] + y * up[c]))
 }
 
 /// The twin's image of `scene` marched with `settings` (made by [`in_scene`]): radiance per unit
 /// sun irradiance, with the sky behind the clouds (`T · L`) and the black ground, row by row.
-/// With [`MarchSettings::jitter`] each pixel is the mean of `jitters` marches whose sample
-/// offsets spread evenly over the step (`(k + ½) / jitters`), as a still view's temporal
-/// accumulation averages its jittered frames; without it one march at the steps' midpoints.
+/// Each pixel is the mean over a stratified grid of [`SUBPIXELS`]² points on its area, as
+/// Mitsuba's box filter averages it. With [`MarchSettings::jitter`] the rays take the sample
+/// offsets `(k + ½) / jitters` (`k` from 0), as a still view's temporal accumulation averages its
+/// jittered frames: `lcm(SUBPIXELS², jitters)` rays, ray `r` through sub-pixel `r mod SUBPIXELS²`
+/// with offset `r mod jitters`, so every offset and every sub-pixel counts the same; without it
+/// one ray per sub-pixel at the steps' midpoints.
 pub fn crate_image(scene: &Scene, settings: &MarchSettings, jitters: u32) -> Vec<f64> {
     let layer = cumulus();
-    let offsets: Vec<f64> = if settings.jitter {
-        let n = jitters.max(1);
-        (0..n)
-            .map(|k| (f64::from(k) + 0.5) / f64::from(n))
-            .collect()
-    } else {
-        vec![0.5]
+    let n = if settings.jitter { jitters.max(1) } else { 1 };
+    let grid = SUBPIXELS * SUBPIXELS;
+    let gcd = |mut a: u32, mut b: u32| {
+        while b != 0 {
+            (a, b) = (b, a % b);
+        }
+        a
     };
+    let rays = grid / gcd(grid, n) * n;
     let mut image = Vec::with_capacity((WIDTH * HEIGHT) as usize);
     for j in 0..HEIGHT {
         for i in 0..WIDTH {
-            let direction = pixel_direction(scene, i, j);
-            let behind = if direction[1] > 0.0 { SKY } else { 0.0 };
-            let sum: f64 = offsets
-                .iter()
-                .map(|&jitter| {
-                    let result = march_clouds(
-                        textures(),
-                        settings,
-                        std::slice::from_ref(&layer),
-                        scene.camera[1],
-                        [0.0, 1.0, 0.0],
-                        direction,
-                        f64::INFINITY,
-                        jitter,
-                        None,
-                    );
-                    result.radiance[1] + result.transmittance * behind
-                })
-                .sum();
-            image.push(sum / offsets.len() as f64);
+            let mut sum = 0.0;
+            for r in 0..rays {
+                let (sx, sy) = ((r % grid) % SUBPIXELS, (r % grid) / SUBPIXELS);
+                let x = f64::from(i) + (f64::from(sx) + 0.5) / f64::from(SUBPIXELS);
+                let y = f64::from(j) + (f64::from(sy) + 0.5) / f64::from(SUBPIXELS);
+                let direction = pixel_direction(scene, x, y);
+                let behind = if direction[1] > 0.0 { SKY } else { 0.0 };
+                let jitter = (f64::from(r % n) + 0.5) / f64::from(n);
+                let result = march_clouds(
+                    textures(),
+                    settings,
+                    std::slice::from_ref(&layer),
+                    scene.camera[1],
+                    [0.0, 1.0, 0.0],
+                    direction,
+                    f64::INFINITY,
+                    jitter,
+                    None,
+                );
+                sum += result.radiance[1] + result.transmittance * behind;
+            }
+            image.push(sum / f64::from(rays));
         }
     }
     image
