@@ -865,6 +865,9 @@ fn fog_visibility_gives_two_percent_contrast_at_the_visibility_distance() {
         // and one of its 4 × 4 blocks would stand for four rows, a degree of the view.
         settings: VolumetricClouds {
             jitter: false,
+            // Koschmieder's law holds ray by ray: at a quarter of the resolution the target is
+            // two march texels wide and the depth-aware upsample mixes the haze of the horizon
+            // beside it into its edges.
             resolution_scale: 1.0,
             ..VolumetricClouds::MEDIUM
         },
@@ -939,6 +942,10 @@ fn haze_visibility_gives_koschmieder_contrast_at_the_visibility_distance() {
         layers: vec![],
         settings: VolumetricClouds {
             jitter: false,
+            // Koschmieder's law holds ray by ray: at a quarter of the resolution the target is
+            // two march texels wide and the depth-aware upsample mixes the haze of the horizon
+            // beside it into its edges.
+            resolution_scale: 1.0,
             ..VolumetricClouds::MEDIUM
         },
     });

@@ -8,7 +8,7 @@
 
 #import bevy_cloudscape::cloud_parameters::clouds
 #import bevy_cloudscape::cloud_geometry::altitude_along_ray
-#import bevy_cloudscape::cloud_light::{henyey_greenstein, mean_step_transmittance}
+#import bevy_cloudscape::cloud_light::{henyey_greenstein, mean_step_transmittance, MAX_PHASE_G, PI}
 #import bevy_cloudscape::cloud_shadow::{shadow_map_uv, shadow_map_covers, sample_shadow_map}
 #import bevy_cloudscape::composite::{intersect_altitude_sphere, ground_distance}
 
@@ -147,6 +147,61 @@ fn front_share(start: f32, end: f32, split: f32) -> f32 {
     return (split - start) / (end - start);
 }
 
+// Rust: the constants of the same names in reference/haze.rs.
+const LIGHT_SHARE_ANGLES: u32 = 16u;
+const LIGHT_SHARE_AZIMUTHS: u32 = 8u;
+
+// The haze's optical depth from `altitude_m` straight up out of it and straight down to the
+// ground. Rust: `haze_column`.
+fn haze_column(altitude_m: f32) -> vec2<f32> {
+    let h = max(haze.scale_height_m, 1.0);
+    let top = HAZE_TOP_SCALE_HEIGHTS * h;
+    let z = clamp(altitude_m, 0.0, top);
+    let at_z = exp(-z / h);
+    let at_top = exp(-top / h);
+    return haze.extinction_per_m * h * vec2<f32>(at_z - at_top, 1.0 - at_z);
+}
+
+// The cosine of the angle from the forward direction below which the Henyey-Greenstein phase of
+// asymmetry g scatters the share 1 - u of its light. Rust: `phase_quantile`.
+fn phase_quantile(u: f32, g: f32) -> f32 {
+    if abs(g) < 1e-3 {
+        return 2.0 * u - 1.0;
+    }
+    let root = (1.0 - g * g) / (1.0 - g + 2.0 * g * u);
+    return clamp((1.0 + g * g - root * root) / (2.0 * g), -1.0, 1.0);
+}
+
+// Where the light a haze particle scatters along a view ray of elevation sine `mu` comes from:
+// the shares of the phase of the sky (x), the ground (y) and the haze itself (z), for the
+// haze's column at the camera. Rust: `haze_light_shares` (its docs give the model).
+fn haze_light_shares(mu: f32, g_in: f32, column: vec2<f32>) -> vec3<f32> {
+    let g = clamp(g_in, -MAX_PHASE_G, MAX_PHASE_G);
+    let sin_e = clamp(mu, -1.0, 1.0);
+    let cos_e = sqrt(max(1.0 - sin_e * sin_e, 0.0));
+    let n = f32(LIGHT_SHARE_ANGLES);
+    let m = f32(LIGHT_SHARE_AZIMUTHS);
+    var shares = vec3<f32>(0.0);
+    for (var k = 0u; k < LIGHT_SHARE_ANGLES; k++) {
+        let cos_theta = phase_quantile((f32(k) + 0.5) / n, g);
+        let sin_theta = sqrt(max(1.0 - cos_theta * cos_theta, 0.0));
+        for (var j = 0u; j < LIGHT_SHARE_AZIMUTHS; j++) {
+            let phi = PI * (f32(j) + 0.5) / m;
+            let mu_d = cos_theta * sin_e + sin_theta * cos_e * cos(phi);
+            var clear = 0.0;
+            if mu_d > 0.0 {
+                clear = exp(-column.x / mu_d);
+                shares.x += clear;
+            } else if mu_d < 0.0 {
+                clear = exp(-column.y / -mu_d);
+                shares.y += clear;
+            }
+            shares.z += 1.0 - clear;
+        }
+    }
+    return shares / (n * m);
+}
+
 // Marches the haze along one view ray, split at the clouds' distance `split_m`. `shafts` holds
 // the ray's shaft factors below and above the lowest cloud base (both the mean shade without
 // shafts). Rust: `march_haze` (whose docs explain the arguments).
@@ -158,9 +213,13 @@ fn march_haze(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, split_m: 
         return result;
     }
     let cos_sun = clamp(dot(direction, clouds.sun_direction.xyz), -1.0, 1.0);
-    let sun = clouds.sun_illuminance.xyz * henyey_greenstein(cos_sun, haze.asymmetry);
-    // The sky above and the ground below, isotropically.
-    let ambient = 0.5 * (haze.sky_radiance.xyz + clouds.ambient_bottom.xyz * haze.ambient_transmittance);
+    // Where the light scattered toward the camera comes from: the sky, the ground, or the haze
+    // itself, whose light each scattering passes on again (Rust: `march_haze`).
+    let shares = haze_light_shares(mu, haze.asymmetry, haze_column(h));
+    let gain = 1.0 / max(1.0 - saturate(haze.albedo) * shares.z, 1e-3);
+    let sun = clouds.sun_illuminance.xyz * (henyey_greenstein(cos_sun, haze.asymmetry) * gain);
+    // The sky above and the ground below, each by its share of the phase.
+    let ambient = gain * (shares.x * haze.sky_radiance.xyz + shares.y * clouds.ambient_bottom.xyz * haze.ambient_transmittance);
     let steps = clamp(haze.steps, 1u, MAX_HAZE_STEPS);
     let n = f32(steps);
     var radiance_front = vec3<f32>(0.0);
