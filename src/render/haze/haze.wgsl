@@ -151,6 +151,12 @@ fn front_share(start: f32, end: f32, split: f32) -> f32 {
 const LIGHT_SHARE_ANGLES: u32 = 16u;
 const LIGHT_SHARE_AZIMUTHS: u32 = 8u;
 
+// The altitude whose haze column gives a view ray's light shares: the camera's, raised by the
+// scale height times the elevation sine on a climbing ray. Rust: `shares_altitude`.
+fn shares_altitude(h: f32, mu: f32) -> f32 {
+    return h + max(haze.scale_height_m, 0.0) * clamp(mu, 0.0, 1.0);
+}
+
 // The haze's optical depth from `altitude_m` straight up out of it and straight down to the
 // ground. Rust: `haze_column`.
 fn haze_column(altitude_m: f32) -> vec2<f32> {
@@ -215,7 +221,7 @@ fn march_haze(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, split_m: 
     let cos_sun = clamp(dot(direction, clouds.sun_direction.xyz), -1.0, 1.0);
     // Where the light scattered toward the camera comes from: the sky, the ground, or the haze
     // itself, whose light each scattering passes on again (Rust: `march_haze`).
-    let shares = haze_light_shares(mu, haze.asymmetry, haze_column(h));
+    let shares = haze_light_shares(mu, haze.asymmetry, haze_column(shares_altitude(h, mu)));
     let gain = 1.0 / max(1.0 - saturate(haze.albedo) * shares.z, 1e-3);
     let sun = clouds.sun_illuminance.xyz * (henyey_greenstein(cos_sun, haze.asymmetry) * gain);
     // The sky above and the ground below, each by its share of the phase.
