@@ -93,6 +93,14 @@ fn rust_constants() -> Vec<(&'static str, Vec<f64>)> {
         ("PI", scalar(std::f64::consts::PI)),
         ("MAX_HAZE_STEPS", scalar(haze::MAX_HAZE_STEPS.into())),
         (
+            "LIGHT_SHARE_ANGLES",
+            scalar(haze::LIGHT_SHARE_ANGLES.into()),
+        ),
+        (
+            "LIGHT_SHARE_AZIMUTHS",
+            scalar(haze::LIGHT_SHARE_AZIMUTHS.into()),
+        ),
+        (
             "HAZE_TOP_SCALE_HEIGHTS",
             scalar(haze::HAZE_TOP_SCALE_HEIGHTS),
         ),
