@@ -189,6 +189,30 @@ impl HazeSettings {
     pub fn extinction_at(&self, altitude_m: f64) -> f64 {
         self.extinction_per_m * (-altitude_m.max(0.0) / self.scale_height_m).exp()
     }
+
+    /// The haze's optical depth from `altitude_m` straight up to [`HazeSettings::top_m`] and
+    /// straight down to the ground, `[τ_above, τ_below]`: the integrals of
+    /// [`HazeSettings::extinction_at`]. `[0, 0]` for haze that is not active. WGSL twin:
+    /// `haze_column`.
+    pub fn column(&self, altitude_m: f64) -> [f64; 2] {
+        if !self.is_active() {
+            return [0.0; 2];
+        }
+        let h = self.scale_height_m;
+        let z = altitude_m.clamp(0.0, self.top_m());
+        let depth =
+            |from: f64, to: f64| self.extinction_per_m * h * ((-from / h).exp() - (-to / h).exp());
+        [depth(z, self.top_m()), depth(0.0, z)]
+    }
+
+    /// The altitude whose [`HazeSettings::column`] gives a view ray's light shares
+    /// ([`haze_light_shares`]), for a ray from `camera_altitude_m` with elevation sine `mu`: the
+    /// camera's, raised by the scale height times `mu` on a climbing ray, since the haze a
+    /// climbing ray sees thins a scale height up and most of its light comes from below that.
+    /// WGSL twin: `shares_altitude`.
+    pub fn shares_altitude(&self, camera_altitude_m: f64, mu: f64) -> f64 {
+        camera_altitude_m + self.scale_height_m * mu.clamp(0.0, 1.0)
+    }
 }
 
 /// The average fraction of sunlight that gets through the clouds over the whole view, 0–1, for
@@ -460,33 +484,14 @@ pub fn shaft_factors(
 /// the circle (the other half mirrors it). WGSL twin: `LIGHT_SHARE_AZIMUTHS`.
 pub const LIGHT_SHARE_AZIMUTHS: u32 = 8;
 
-/// The altitude whose haze column [`march_haze`] takes the light shares of ([`haze_light_shares`])
-/// for a view ray from `camera_altitude_m` with elevation sine `mu`: the camera's, raised by the
-/// scale height times `mu` on a climbing ray, since the haze a climbing ray sees thins a scale
-/// height up and most of its light comes from below that. WGSL twin: `shares_altitude`.
-pub fn shares_altitude(haze: &HazeSettings, camera_altitude_m: f64, mu: f64) -> f64 {
-    camera_altitude_m + haze.scale_height_m.max(0.0) * mu.clamp(0.0, 1.0)
-}
-
-/// The haze's optical depth from `altitude_m` straight up out of it and straight down to the
-/// ground: `[τ_above, τ_below]`.
-pub fn haze_column(haze: &HazeSettings, altitude_m: f64) -> [f64; 2] {
-    let h = haze.scale_height_m.max(1.0);
-    let top = HAZE_TOP_SCALE_HEIGHTS * h;
-    let z = altitude_m.clamp(0.0, top);
-    let column =
-        |from: f64, to: f64| haze.extinction_per_m * h * ((-from / h).exp() - (-to / h).exp());
-    [column(z, top), column(0.0, z)]
-}
-
 /// Angles from the view ray in [`haze_light_shares`]' quadrature (points of equal phase
 /// probability). WGSL twin: `LIGHT_SHARE_ANGLES`.
 pub const LIGHT_SHARE_ANGLES: u32 = 16;
 
 /// Where the light that a haze particle scatters along a view ray comes from, for a ray of
 /// elevation sine `mu` (positive looking up), a Henyey-Greenstein phase of asymmetry `g` and the
-/// haze's column `[τ_above, τ_below]` ([`haze_column`] at [`shares_altitude`]): the shares of the
-/// phase,
+/// haze's column `[τ_above, τ_below]` ([`HazeSettings::column`] at
+/// [`HazeSettings::shares_altitude`]): the shares of the phase,
 /// `∫ p(d · v) w(d) dΩ` over the directions `d` the light comes from, of
 ///
 /// - the sky seen through the haze above: `w = e^(−τ(d))` where `d` points up;
@@ -581,7 +586,7 @@ pub fn march_haze(
     let [from_sky, from_ground, from_haze] = haze_light_shares(
         mu,
         haze.asymmetry,
-        haze_column(haze, shares_altitude(haze, camera_altitude_m, mu)),
+        haze.column(haze.shares_altitude(camera_altitude_m, mu)),
     );
     let gain = 1.0 / (1.0 - haze.albedo.clamp(0.0, 1.0) * from_haze).max(1e-3);
     let phase = henyey_greenstein(cos_sun, haze.asymmetry) * gain;
@@ -756,7 +761,7 @@ mod tests {
         let result = level_view(&haze, d).front;
         let cos = dot([0.0, 0.0, -1.0], settings.sun_direction);
         // The source of every sample: the level ray's shares of the phase at the camera (2 m up).
-        let [sky, ground, own] = haze_light_shares(0.0, haze.asymmetry, haze_column(&haze, 2.0));
+        let [sky, ground, own] = haze_light_shares(0.0, haze.asymmetry, haze.column(2.0));
         let source = haze.albedo / (1.0 - haze.albedo * own)
             * (settings.sun_illuminance[0] * henyey_greenstein(cos, haze.asymmetry)
                 + sky * settings.ambient_top[0]
@@ -1226,8 +1231,9 @@ mod tests {
     }
 
     /// The haze against the path-traced truth (`validation/README.md`, "Haze against
-    /// Mitsuba"): the sky's light and the sun's at every view within the validation's 10 % for
-    /// an optically thin medium. Single scattering alone leaves the sun's light near the horizon
+    /// Mitsuba"): the sky's light and the sun's at every view within the validation's target for
+    /// an optically thin medium (`THIN_MEDIUM_TOLERANCE`: the haze's vertical optical depth is
+    /// 0.12, below the thinnest DISORT deck's 0.5). Single scattering alone leaves the sun's light near the horizon
     /// far too dark, and a sky and ground light taken as one isotropic mean leaves the air seen
     /// below the horizon far too bright.
     #[test]
@@ -1238,8 +1244,13 @@ mod tests {
             100.0 * sky,
             100.0 * sun
         );
-        assert!(sky <= 0.10, "sky light {:.1} % off\n{report}", 100.0 * sky);
-        assert!(sun <= 0.10, "sunlight {:.1} % off\n{report}", 100.0 * sun);
+        let target = crate::reference::table::THIN_MEDIUM_TOLERANCE;
+        assert!(
+            sky <= target,
+            "sky light {:.1} % off\n{report}",
+            100.0 * sky
+        );
+        assert!(sun <= target, "sunlight {:.1} % off\n{report}", 100.0 * sun);
     }
 
     #[test]

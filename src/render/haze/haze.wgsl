@@ -152,20 +152,19 @@ const LIGHT_SHARE_ANGLES: u32 = 16u;
 const LIGHT_SHARE_AZIMUTHS: u32 = 8u;
 
 // The altitude whose haze column gives a view ray's light shares: the camera's, raised by the
-// scale height times the elevation sine on a climbing ray. Rust: `shares_altitude`.
+// scale height times the elevation sine on a climbing ray. Rust: `HazeSettings::shares_altitude`.
 fn shares_altitude(h: f32, mu: f32) -> f32 {
-    return h + max(haze.scale_height_m, 0.0) * clamp(mu, 0.0, 1.0);
+    return h + haze.scale_height_m * clamp(mu, 0.0, 1.0);
 }
 
 // The haze's optical depth from `altitude_m` straight up out of it and straight down to the
-// ground. Rust: `haze_column`.
+// ground, for active haze. Rust: `HazeSettings::column`.
 fn haze_column(altitude_m: f32) -> vec2<f32> {
-    let h = max(haze.scale_height_m, 1.0);
+    let h = haze.scale_height_m;
     let top = HAZE_TOP_SCALE_HEIGHTS * h;
     let z = clamp(altitude_m, 0.0, top);
     let at_z = exp(-z / h);
-    let at_top = exp(-top / h);
-    return haze.extinction_per_m * h * vec2<f32>(at_z - at_top, 1.0 - at_z);
+    return haze.extinction_per_m * h * vec2<f32>(at_z - exp(-top / h), 1.0 - at_z);
 }
 
 // The cosine of the angle from the forward direction below which the Henyey-Greenstein phase of

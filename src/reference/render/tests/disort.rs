@@ -18,7 +18,7 @@ const VIEWS: [(&str, bool, f64); 4] = [
 ];
 /// Radiance targets against DISORT: from optical depth 2 on, and below it.
 const TOLERANCE_THICK: f64 = 0.05;
-const TOLERANCE_THIN: f64 = 0.10;
+const TOLERANCE_THIN: f64 = crate::reference::table::THIN_MEDIUM_TOLERANCE;
 /// Target for a ratio of two brightnesses (the validation's base-to-top target for cumulus).
 const RATIO_TOLERANCE: f64 = 0.15;
 
