@@ -374,6 +374,7 @@ pub(crate) struct GpuCloudUniforms {
     shadow_map_range_m: Vec4,
     flash: Vec4,
     peak_caps: Vec4,
+    peak_spread: Vec4,
 }
 
 // The peak's caps fill `peak_caps.xyz` and its angle's cosine `w`.
@@ -472,6 +473,7 @@ impl GpuCloudUniforms {
                 caps[3] = phase.forward_peak_cos as f32;
                 Vec4::from_array(caps)
             },
+            peak_spread: Vec4::from_array(phase.peak_spread.map(|t| t as f32)),
         }
     }
 
@@ -895,7 +897,7 @@ mod tests {
 
     #[test]
     fn gpu_structs_match_the_shader_layout() {
-        assert_eq!(GpuCloudUniforms::min_size().get(), 288);
+        assert_eq!(GpuCloudUniforms::min_size().get(), 304);
         assert_eq!(GpuCloudLayer::min_size().get(), 256);
     }
 

@@ -21,6 +21,8 @@
 const MIN_DIFFUSE_MU_SUN: f32 = 0.02;
 // Orders of scattering within the forward peak after the first. Rust: `PEAK_ORDERS`.
 const PEAK_ORDERS: u32 = 2u;
+// Angles `clouds.peak_spread` holds. Rust: `PEAK_SPREAD_ANGLES`.
+const PEAK_SPREAD_ANGLES: u32 = 4u;
 const MAX_LIGHT_STEPS: u32 = 64u;
 // Where each light-march step is sampled: its midpoint, whatever the view ray's jitter (an
 // average of e^-tau over offsets is biased bright). Rust: `LIGHT_SAMPLE_OFFSET`.
@@ -168,11 +170,16 @@ fn sample_source(
         let c1 = constants.y;
         let i1 = c1 - 3.0 * mu0 * k * beam;
         let i0 = c0 - one_minus_g * c1 * column_above - 3.0 * mu0 * mu0 * k * beam;
-        // Light going up: the flux the source-function integral leaves out.
+        // Light going up: the flux the source-function integral leaves out, less what the
+        // forward peak turns out of a grazing sun's beam through the top.
         let up = saturate(0.5 - 2.0 * mu_view);
         let reflected = k * reflection_deficit(mu0) * (1.0 - through) * up;
+        var escaped = 0.0;
+        if up > 0.0 {
+            escaped = up * f * peak_upward_share(mu0) * (1.0 - through);
+        }
         // The sun on the column's top, through the layers above.
-        diffuse = max(i0 + g_star * mu_view * i1 + reflected, 0.0) * exp(-(1.0 - f) * sun_above_depth);
+        diffuse = (1.0 - escaped) * max(i0 + g_star * mu_view * i1 + reflected, 0.0) * exp(-(1.0 - f) * sun_above_depth);
     }
     let top = clouds.ambient_top.xyz * sky_light_top;
     let bottom = clouds.ambient_bottom.xyz * sky_light_bottom;
@@ -182,6 +189,21 @@ fn sample_source(
     source.direct = scattering * sun * peak;
     source.scaled = scattering * (sun * (wide + (1.0 - f) * diffuse) + (1.0 - f) * sky);
     return source;
+}
+
+// The share of the light a grazing beam (sun cosine mu0) loses to its forward peak that the
+// peak turns upward. Rust: `peak_upward_share`.
+fn peak_upward_share(mu0_in: f32) -> f32 {
+    let mu0 = saturate(mu0_in);
+    let tan_depression = mu0 / sqrt(max(1.0 - mu0 * mu0, 1e-12));
+    var up = 0.0;
+    for (var k = 0u; k < PEAK_SPREAD_ANGLES; k++) {
+        let tan_theta = clouds.peak_spread[k];
+        if tan_theta > tan_depression {
+            up += acos(tan_depression / tan_theta);
+        }
+    }
+    return up / (PI * f32(PEAK_SPREAD_ANGLES));
 }
 
 // The sun's diffuse field's (C0, C1) over k: C1 = (q - through (3 mu0^2 - 2 mu0)) / transport,

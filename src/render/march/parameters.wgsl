@@ -94,6 +94,9 @@ struct CloudUniforms {
     // forward lobe, 1/sr; w: the cosine of FORWARD_PEAK_DEG (Rust: `EddingtonPhase::peak_caps`,
     // `FORWARD_PEAK_DEG`).
     peak_caps: vec4<f32>,
+    // Tangents of the angles the forward peak turns its light by, one per quarter of the peak's
+    // light (Rust: `EddingtonPhase::peak_spread`).
+    peak_spread: vec4<f32>,
 }
 
 // One cloud layer of the storage buffer, written by `GpuCloudLayer` (render/view.rs) from

@@ -252,12 +252,18 @@ fn slab_radiances_against_disort() {
 /// from the zenith seen from above are beyond the target.
 #[test]
 fn thick_decks_under_a_sun_up_to_70_degrees_meet_the_target() {
+    assert_within_thick_target(|case, _| case.optical_depth >= 8.0 && case.sun_zenith_deg <= 70.0);
+}
+
+/// Asserts every view `(case, looking up)` picks within [`TOLERANCE_THICK`] of DISORT, naming
+/// each one beyond it.
+fn assert_within_thick_target(picks: impl Fn(&Case, bool) -> bool) {
     let mut failures = String::new();
     for case in table() {
-        if case.optical_depth < 8.0 || case.sun_zenith_deg > 70.0 {
-            continue;
-        }
-        for (view, (name, _, _)) in VIEWS.iter().enumerate() {
+        for (view, (name, looking_up, _)) in VIEWS.iter().enumerate() {
+            if !picks(&case, *looking_up) {
+                continue;
+            }
             let error = crate_radiance(&case, view) / case.radiance[view] - 1.0;
             if error.abs() > TOLERANCE_THICK {
                 failures += &format!(
@@ -275,6 +281,18 @@ fn thick_decks_under_a_sun_up_to_70_degrees_meet_the_target() {
         "beyond {:.0} % of DISORT:\n{failures}",
         100.0 * TOLERANCE_THICK
     );
+}
+
+/// Decks seen from above under a sun 85° from the zenith, from optical depth 8 on, sky off and
+/// on: within the validation's 5 %. The forward peak turns part of a grazing beam up and out
+/// through the top ([`peak_upward_share`]); without that the views from above were 10–16 % too
+/// bright against DISORT. (From below they are not yet within the target:
+/// [`slab_radiances_against_disort`] prints them.)
+#[test]
+fn thick_decks_seen_from_above_under_a_grazing_sun_meet_the_target() {
+    assert_within_thick_target(|case, looking_up| {
+        !looking_up && case.optical_depth >= 8.0 && case.sun_zenith_deg == 85.0
+    });
 }
 
 /// The ground under a full deck, lit by the sun and the sky as in a scene: the direct and
