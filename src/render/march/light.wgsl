@@ -170,16 +170,14 @@ fn sample_source(
         let c1 = constants.y;
         let i1 = c1 - 3.0 * mu0 * k * beam;
         let i0 = c0 - one_minus_g * c1 * column_above - 3.0 * mu0 * mu0 * k * beam;
-        // Light going up: the flux the source-function integral leaves out, less what the
-        // forward peak turns out of a grazing sun's beam through the top.
+        // Light going up: the flux the source-function integral leaves out. Both ways, what the
+        // forward peak does to a grazing sun's beam, in the column's scattered part.
         let up = saturate(0.5 - 2.0 * mu_view);
         let reflected = k * reflection_deficit(mu0) * (1.0 - through) * up;
-        var escaped = 0.0;
-        if up > 0.0 {
-            escaped = up * f * peak_upward_share(mu0) * (1.0 - through);
-        }
+        let turned_by_peak = grazing_peak_factors(mu0);
+        let turned = 1.0 - (1.0 - through) * (1.0 - mix(turned_by_peak.y, turned_by_peak.x, up));
         // The sun on the column's top, through the layers above.
-        diffuse = (1.0 - escaped) * max(i0 + g_star * mu_view * i1 + reflected, 0.0) * exp(-(1.0 - f) * sun_above_depth);
+        diffuse = turned * max(i0 + g_star * mu_view * i1 + reflected, 0.0) * exp(-(1.0 - f) * sun_above_depth);
     }
     let top = clouds.ambient_top.xyz * sky_light_top;
     let bottom = clouds.ambient_bottom.xyz * sky_light_bottom;
@@ -204,6 +202,39 @@ fn peak_upward_share(mu0_in: f32) -> f32 {
         }
     }
     return up / (PI * f32(PEAK_SPREAD_ANGLES));
+}
+
+// How deep the light the forward peak turns out of a beam going down (sun cosine mu0) starts its
+// diffusion, as the azimuth mean of mu' + 1/sqrt(3) (0 for light turned up). Rust:
+// `peak_injection_depth`.
+fn peak_injection_depth(mu0: f32) -> f32 {
+    let sin_a = saturate(mu0);
+    let cos_a = sqrt(max(1.0 - sin_a * sin_a, 0.0));
+    let quadrature = 0.57735026918962576;
+    var sum = 0.0;
+    for (var k = 0u; k < PEAK_SPREAD_ANGLES; k++) {
+        let tan_theta = clouds.peak_spread[k];
+        let cos_theta = 1.0 / sqrt(1.0 + tan_theta * tan_theta);
+        let along = sin_a * cos_theta;
+        let across = cos_a * tan_theta * cos_theta;
+        if across <= along {
+            sum += along + quadrature;
+        } else {
+            let cos_c = -along / across;
+            sum += ((along + quadrature) * acos(cos_c) + across * sqrt(max(1.0 - cos_c * cos_c, 0.0))) / PI;
+        }
+    }
+    return sum / f32(PEAK_SPREAD_ANGLES);
+}
+
+// Factors on the sun's diffuse source for light going up (x) and down (y) from what the forward
+// peak does to a grazing beam. Rust: `grazing_peak_factors`.
+fn grazing_peak_factors(mu0: f32) -> vec2<f32> {
+    let f = clouds.forward_fraction;
+    let quadrature = 0.57735026918962576;
+    let depth = (1.0 - f) + f * peak_injection_depth(mu0) / (mu0 + quadrature);
+    let overhead = (1.0 - f) + f * peak_injection_depth(1.0) / (1.0 + quadrature);
+    return vec2<f32>(1.0 - f * peak_upward_share(mu0), depth / overhead);
 }
 
 // The sun's diffuse field's (C0, C1) over k: C1 = (q - through (3 mu0^2 - 2 mu0)) / transport,

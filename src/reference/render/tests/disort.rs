@@ -246,25 +246,17 @@ fn slab_radiances_against_disort() {
 }
 
 /// The validation's 5 % target where the light meets it: every view of every deck from optical
-/// depth 8 on, under a sun up to 70° from the zenith, sky off and on. Decks this thick are lit
-/// by light scattered many times, which the quadrature two-stream's dependence on the sun's
-/// cosine carries ([`sun_diffuse_constants`]); with Eddington's, thick decks under a sun 70°
-/// from the zenith seen from above are beyond the target.
+/// depth 8 on, under every sun of the table, sky off and on. Decks this thick are lit by light
+/// scattered many times, which the quadrature two-stream's dependence on the sun's cosine carries
+/// ([`sun_diffuse_constants`]); under a sun 85° from the zenith, what the forward peak does to
+/// the grazing beam ([`grazing_peak_factors`]) too: without it those decks were 7–16 % too
+/// bright.
 #[test]
-fn thick_decks_under_a_sun_up_to_70_degrees_meet_the_target() {
-    assert_within_thick_target(|case, _| case.optical_depth >= 8.0 && case.sun_zenith_deg <= 70.0);
-}
-
-/// Asserts every view `(case, looking up)` picks within [`TOLERANCE_THICK`] of DISORT, naming
-/// each one beyond it.
-fn assert_within_thick_target(picks: impl Fn(&Case, bool) -> bool) {
+fn thick_decks_meet_the_target_under_every_sun() {
     let mut failures = String::new();
-    for case in table() {
-        for (view, (name, looking_up, _)) in VIEWS.iter().enumerate() {
-            if !picks(&case, *looking_up) {
-                continue;
-            }
-            let error = crate_radiance(&case, view) / case.radiance[view] - 1.0;
+    for case in table().iter().filter(|case| case.optical_depth >= 8.0) {
+        for (view, (name, _, _)) in VIEWS.iter().enumerate() {
+            let error = crate_radiance(case, view) / case.radiance[view] - 1.0;
             if error.abs() > TOLERANCE_THICK {
                 failures += &format!(
                     "optical depth {}, sun {}° from the zenith, sky {}, {name}: {:+.1} %\n",
@@ -283,22 +275,11 @@ fn assert_within_thick_target(picks: impl Fn(&Case, bool) -> bool) {
     );
 }
 
-/// Decks seen from above under a sun 85° from the zenith, from optical depth 8 on, sky off and
-/// on: within the validation's 5 %. The forward peak turns part of a grazing beam up and out
-/// through the top ([`peak_upward_share`]); without that the views from above were 10–16 % too
-/// bright against DISORT. (From below they are not yet within the target:
-/// [`slab_radiances_against_disort`] prints them.)
-#[test]
-fn thick_decks_seen_from_above_under_a_grazing_sun_meet_the_target() {
-    assert_within_thick_target(|case, looking_up| {
-        !looking_up && case.optical_depth >= 8.0 && case.sun_zenith_deg == 85.0
-    });
-}
-
-/// The ground under a full deck, lit by the sun and the sky as in a scene: the direct and
-/// diffuse light on a horizontal surface within 10 % of DISORT's total downward flux at the
-/// base (the validation target). Without the sky a sun 5° high is brighter than that, which
-/// the table printed here shows.
+/// The ground under a full deck, lit by the sun and the sky as in a scene and by the sun alone:
+/// the direct and diffuse light on a horizontal surface within 10 % of DISORT's total downward
+/// flux at the base (the validation target). Under a sun 5° high lit by the sun alone it takes
+/// what the forward peak does to the grazing beam ([`grazing_peak_factors`]); without that it
+/// was up to 13 % too bright.
 #[test]
 fn the_light_under_a_deck_is_disorts_downward_flux() {
     let phase = eddington_phase(&MarchSettings::default());
@@ -315,9 +296,7 @@ fn the_light_under_a_deck_is_disorts_downward_flux() {
             case.sky_radiance,
             100.0 * error
         );
-        if case.sky_radiance > 0.0 {
-            worst = worst.max(error.abs());
-        }
+        worst = worst.max(error.abs());
     }
     println!("{report}");
     assert!(
@@ -412,4 +391,26 @@ fn the_aureole_under_a_deck_is_as_bright_as_disort_says() {
     }
     println!("{report}");
     assert!(!failed, "{report}");
+}
+
+/// What the forward peak does to a grazing beam changes the light of a sun 20° or more up by
+/// less than 0.5 %, a tenth of the validation's target (the decks DISORT checks there were
+/// within the target without it), and takes light from both ways
+/// under a sun a few degrees up: more from the light going up, which loses the light turned out
+/// through the top, than from the light going down, which the light turned deeper makes up in
+/// part.
+#[test]
+fn the_peak_turns_only_a_grazing_beam() {
+    let phase = eddington_phase(&MarchSettings::default());
+    for elevation_deg in [20.0_f64, 30.0, 50.0, 70.0, 90.0] {
+        let [up, down] = grazing_peak_factors(&phase, elevation_deg.to_radians().sin());
+        println!("sun {elevation_deg}° up: light going up {up:.4}, going down {down:.4}");
+        assert!(
+            (up - 1.0).abs() < 5e-3 && (down - 1.0).abs() < 5e-3,
+            "sun {elevation_deg}° up: {up}, {down}"
+        );
+    }
+    let [up, down] = grazing_peak_factors(&phase, 5f64.to_radians().sin());
+    println!("sun 5° up: light going up {up:.3}, going down {down:.3}");
+    assert!(up < down && down < 1.0, "{up}, {down}");
 }
