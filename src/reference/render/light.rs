@@ -187,8 +187,8 @@ pub fn peak_upward_share(phase: &EddingtonPhase, mu0: f64) -> f64 {
 /// peak's light starts its diffusion, in the terms of the quadrature two-stream's `μ₀ + 1/√3`
 /// ([`sun_diffuse_constants`]). Turned by `θ` at the azimuth `φ` from straight down, `μ' = sin α₀
 /// cos θ + cos α₀ sin θ cos φ`; the mean over the angles of
-/// [`EddingtonPhase::peak_spread`].
-fn peak_injection_depth(phase: &EddingtonPhase, mu0: f64) -> f64 {
+/// [`EddingtonPhase::peak_spread`]. WGSL twin: `peak_injection_depth`.
+pub fn peak_injection_depth(phase: &EddingtonPhase, mu0: f64) -> f64 {
     let sin_a = mu0.clamp(0.0, 1.0);
     let cos_a = (1.0 - sin_a * sin_a).max(0.0).sqrt();
     let quadrature = 1.0 / 3f64.sqrt();
