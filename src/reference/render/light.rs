@@ -228,6 +228,37 @@ pub fn grazing_peak_factors(phase: &EddingtonPhase, mu0: f64) -> [f64; 2] {
     ]
 }
 
+/// Azimuths [`peak_spread_phase`] averages over, from 0 to π. WGSL twin:
+/// `PEAK_SPREAD_AZIMUTHS`.
+pub const PEAK_SPREAD_AZIMUTHS: usize = 8;
+
+/// The settings' dual-lobe phase for light the forward peak has turned before it scatters, at
+/// the cosine `cos_theta` from the sun, 1/sr: the phase's mean over the directions the peak turns
+/// the sun's light into, by the angles of [`EddingtonPhase::peak_spread`] in
+/// [`PEAK_SPREAD_AZIMUTHS`] azimuths. The δ-scaled beam ([`sample_source`]) holds such light as
+/// if it still went along the sun; away from the peak the phase falls convexly, so the turned
+/// light scatters more to the side than the beam would (for the default phase, 57° from the sun
+/// about a quarter more). WGSL twin: `peak_spread_phase`.
+pub fn peak_spread_phase(settings: &MarchSettings, phase: &EddingtonPhase, cos_theta: f64) -> f64 {
+    let cos_theta = cos_theta.clamp(-1.0, 1.0);
+    let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+    let mut sum = 0.0;
+    for &tan_turn in &phase.peak_spread {
+        let cos_turn = 1.0 / (1.0 + tan_turn * tan_turn).sqrt();
+        let sin_turn = tan_turn * cos_turn;
+        for j in 0..PEAK_SPREAD_AZIMUTHS {
+            let azimuth = std::f64::consts::PI * (j as f64 + 0.5) / PEAK_SPREAD_AZIMUTHS as f64;
+            sum += dual_lobe_phase(
+                cos_theta * cos_turn + sin_theta * sin_turn * azimuth.cos(),
+                settings.phase_g_forward,
+                settings.phase_g_back,
+                settings.phase_blend,
+            );
+        }
+    }
+    sum / (PEAK_SPREAD_ANGLES * PEAK_SPREAD_AZIMUTHS) as f64
+}
+
 /// [`EddingtonPhase`] of the settings' dual-lobe phase (asymmetries clamped to
 /// ±[`MAX_PHASE_G`], the blend to 0–1, as [`dual_lobe_phase`] does).
 pub fn eddington_phase(settings: &MarchSettings) -> EddingtonPhase {
@@ -286,6 +317,9 @@ pub struct SampleLights {
     pub mu_sun: f64,
     /// Cosine between the view ray and the sun.
     pub cos_sun: f64,
+    /// The dual-lobe phase at `cos_sun` averaged over the forward peak's spread
+    /// ([`peak_spread_phase`]), 1/sr: the phase for the sun's light the peak has already turned.
+    pub spread_phase: f64,
     /// Cosine of the view ray's zenith angle (positive looking up).
     pub mu_view: f64,
     /// The part of `sun_optical_depth` in separate layers above the sample's own
@@ -352,6 +386,16 @@ pub struct SampleLights {
 /// and 0.90 (down) for a sun 5° up; with them every view of decks from optical depth 8 on under
 /// a sun 85° from the zenith is within 3.4 % of DISORT, where they were 7–16 % too bright.
 ///
+/// The scaled beam `e^(−(1 − f) τs)` holds the sun's light the peak has already turned on its
+/// way in, `1 − e^(−f τs)` of it, as if it still went along the sun; turned by 5–20°, it
+/// scatters by the phase averaged over those directions ([`SampleLights::spread_phase`],
+/// [`peak_spread_phase`]), which away from the peak, where the phase falls convexly, is larger.
+/// The single scattering outside the peak takes `p + (1 − e^(−f τs)) (p̄ − p)` (`p̄` that mean;
+/// the dual lobe alone, not the halo's ring). Only the sun's path counts, not the view's: the
+/// source stays the same all along a ray through a uniform medium, which keeps Koschmieder's
+/// contrast. With it thin decks seen from below are up to 5 points closer to DISORT (2 deep,
+/// the sun 40° from the zenith, straight up: −4.4 %, was −9.7 %).
+///
 /// The sun's single scattering is split at [`EddingtonPhase::forward_cap`]: the peak above it,
 /// `E (p − p_cap)⁺ e^(−τs)`, is seen through the true medium; the rest, `E min(p, p_cap)
 /// e^(−(1 − f) τs)`, through the scaled one, so light scattered in the peak and then once more
@@ -389,12 +433,13 @@ pub fn sample_source(
     } else {
         0.0
     };
-    let mut p = dual_lobe_phase(
+    let dual = dual_lobe_phase(
         lights.cos_sun,
         settings.phase_g_forward,
         settings.phase_g_back,
         settings.phase_blend,
     );
+    let mut p = dual;
     if halo > 0.0 {
         p = (1.0 - halo) * p + halo * halo_phase(lights.cos_sun);
     }
@@ -445,7 +490,11 @@ pub fn sample_source(
                     depth + lights.view_optical_depth.max(0.0),
                 ))
             * (-depth).exp();
-        wide = capped * beam;
+        // The scaled beam holds light the peak has turned already on the sun's path: it
+        // scatters by the phase spread over the peak's angles.
+        let turned_before = 1.0 - (-f * depth).exp();
+        let spread = p + turned_before * (1.0 - halo) * (lights.spread_phase - dual);
+        wide = spread.min(phase.forward_cap) * beam;
         let through = (-(1.0 - f) * (depth + column.below / mu0)).exp();
         let [c0, c1] = sun_diffuse_constants(mu0, through, transport).map(|c| k * c);
         let i1 = c1 - 3.0 * mu0 * k * beam;

@@ -11,8 +11,8 @@ use super::{
     SHADOW_MAP_NEAR_STEPS, SHADOW_MAP_NEAR_TEXELS, SampleLights, add, altitude_along_ray, dot,
     eddington_phase, flash_source, ground_distance, higher_layers_optical_depth, horizontal_axes,
     is_positive, layer_density, layer_is_active, lerp, mean_step_transmittance,
-    next_cloud_interval, point_mu_sun, profile_column, sample_source, saturate, scale,
-    scattering_albedo, step_warp, sun_optical_depth, total_extinction,
+    next_cloud_interval, peak_spread_phase, point_mu_sun, profile_column, sample_source, saturate,
+    scale, scattering_albedo, step_warp, sun_optical_depth, total_extinction,
 };
 use crate::reference::haze::clear_air_extinction;
 #[cfg(doc)]
@@ -262,6 +262,8 @@ struct Ray<'a> {
     light_steps: u32,
     /// The δ-Eddington constants of the settings' phase.
     phase: EddingtonPhase,
+    /// The phase at `cos_sun` for light the forward peak has turned ([`peak_spread_phase`]).
+    spread_phase: f64,
     sun_on: bool,
     jitter: f64,
     /// Optical depth from the camera so far: summed, not multiplied into the transmittance,
@@ -651,6 +653,7 @@ impl Ray<'_> {
                 sun_optical_depth: sun_optical_depth_at,
                 mu_sun,
                 cos_sun: self.cos_sun,
+                spread_phase: self.spread_phase,
                 mu_view: self.mu,
                 sun_above_depth,
                 sky_light,
@@ -810,6 +813,7 @@ pub fn march_clouds(
     }
     let axes = horizontal_axes(up);
     let cos_sun = dot(direction, settings.sun_direction).clamp(-1.0, 1.0);
+    let phase = eddington_phase(settings);
     let mut ray = Ray {
         textures,
         shadow,
@@ -828,7 +832,8 @@ pub fn march_clouds(
             saturate(jitter),
         ),
         cutoff: ray_transmittance_cutoff(settings.transmittance_cutoff, cos_sun, t_max),
-        phase: eddington_phase(settings),
+        phase,
+        spread_phase: peak_spread_phase(settings, &phase, cos_sun),
         sun_on: settings.sun_illuminance.iter().any(|&e| e > 0.0),
         jitter: saturate(jitter),
         optical_depth: 0.0,

@@ -13,7 +13,7 @@
 }
 #import bevy_cloudscape::cloud_light::{
     LIGHT_SAMPLE_OFFSET, SHADOW_MAP_NEAR_STEPS, SHADOW_MAP_NEAR_TEXELS, SampleSource,
-    flash_source, higher_layers_optical_depth, mean_step_transmittance, point_mu_sun, sample_source,
+    flash_source, higher_layers_optical_depth, mean_step_transmittance, peak_spread_phase, point_mu_sun, sample_source,
     sun_optical_depth,
 }
 #import bevy_cloudscape::cloud_shadow::{map_sun_optical_depth, shadow_map_covers, shadow_map_uv}
@@ -186,6 +186,8 @@ struct MarchRay {
     opacity: f32,
     // The view transmittance the ray stops at (`ray_transmittance_cutoff`).
     cutoff: f32,
+    // The phase at cos_sun for light the forward peak has turned (`peak_spread_phase`).
+    spread_phase: f32,
 }
 
 // What a view ray sees of the clouds. Rust: `MarchResult`.
@@ -548,7 +550,7 @@ fn light_sample(ray: ptr<function, MarchRay>, sample: QueuedSample) -> SampleSou
             optical_depth = from_map;
         }
     }
-    var source = sample_source(sample.scattering, sample.column_above, sample.column_below, sample.ambient, sample.ambient, sample.sky_light_bottom, optical_depth, above, mu_sun, (*ray).cos_sun, (*ray).mu, sample.halo_share, sample.view_depth);
+    var source = sample_source(sample.scattering, sample.column_above, sample.column_below, sample.ambient, sample.ambient, sample.sky_light_bottom, optical_depth, above, mu_sun, (*ray).cos_sun, (*ray).spread_phase, (*ray).mu, sample.halo_share, sample.view_depth);
     // A lightning flash's light, diffuse (Rust: `Ray::integrate`).
     source.scaled += vec3<f32>(sample.scattering * flash_source(position, sample.extinction));
     return source;
@@ -684,6 +686,7 @@ fn march_clouds(h: f32, up: vec3<f32>, direction: vec3<f32>, t_max: f32, jitter:
         0.0,
         0.0,
         ray_transmittance_cutoff(clouds.transmittance_cutoff, cos_sun, t_max),
+        peak_spread_phase(cos_sun),
     );
     queued = 0u;
     // The primary steps are a budget for the whole ray, shared by its intervals.

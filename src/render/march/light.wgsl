@@ -23,6 +23,8 @@ const MIN_DIFFUSE_MU_SUN: f32 = 0.02;
 const PEAK_ORDERS: u32 = 2u;
 // Angles `clouds.peak_spread` holds. Rust: `PEAK_SPREAD_ANGLES`.
 const PEAK_SPREAD_ANGLES: u32 = 4u;
+// Azimuths `peak_spread_phase` averages over. Rust: `PEAK_SPREAD_AZIMUTHS`.
+const PEAK_SPREAD_AZIMUTHS: u32 = 8u;
 const MAX_LIGHT_STEPS: u32 = 64u;
 // Where each light-march step is sampled: its midpoint, whatever the view ray's jitter (an
 // average of e^-tau over offsets is biased bright). Rust: `LIGHT_SAMPLE_OFFSET`.
@@ -118,11 +120,13 @@ fn sample_source(
     sun_above_depth: f32,
     mu_sun: f32,
     cos_sun: f32,
+    spread_phase: f32,
     mu_view: f32,
     halo_share: f32,
     view_depth: f32,
 ) -> SampleSource {
-    var p = dual_lobe_phase(cos_sun, clouds.phase_g_forward, clouds.phase_g_back, clouds.phase_blend);
+    let dual = dual_lobe_phase(cos_sun, clouds.phase_g_forward, clouds.phase_g_back, clouds.phase_blend);
+    var p = dual;
     var halo = 0.0;
     if halo_share > 0.0 {
         halo = min(halo_share, 1.0);
@@ -163,7 +167,11 @@ fn sample_source(
         let capped = min(p, clouds.forward_cap);
         let beam = exp(-(1.0 - f) * sun_depth);
         peak = ((p - capped) + (1.0 - halo) * peak_orders(cos_sun, sun_depth + max(view_depth, 0.0))) * exp(-sun_depth);
-        wide = capped * beam;
+        // The scaled beam holds light the peak has turned already on the sun's path: it
+        // scatters by the phase spread over the peak's angles.
+        let turned_before = 1.0 - exp(-f * sun_depth);
+        let spread = p + turned_before * (1.0 - halo) * (spread_phase - dual);
+        wide = min(spread, clouds.forward_cap) * beam;
         let through = exp(-(1.0 - f) * (sun_depth + column_below / mu0));
         let constants = k * sun_diffuse_constants(mu0, through, transport);
         let c0 = constants.x;
@@ -202,6 +210,24 @@ fn peak_upward_share(mu0_in: f32) -> f32 {
         }
     }
     return up / (PI * f32(PEAK_SPREAD_ANGLES));
+}
+
+// The dual-lobe phase at cos_theta from the sun for light the forward peak has turned, averaged
+// over the peak's angles and PEAK_SPREAD_AZIMUTHS azimuths. Rust: `peak_spread_phase`.
+fn peak_spread_phase(cos_theta_in: f32) -> f32 {
+    let cos_theta = clamp(cos_theta_in, -1.0, 1.0);
+    let sin_theta = sqrt(max(1.0 - cos_theta * cos_theta, 0.0));
+    var sum = 0.0;
+    for (var k = 0u; k < PEAK_SPREAD_ANGLES; k++) {
+        let tan_turn = clouds.peak_spread[k];
+        let cos_turn = 1.0 / sqrt(1.0 + tan_turn * tan_turn);
+        let sin_turn = tan_turn * cos_turn;
+        for (var j = 0u; j < PEAK_SPREAD_AZIMUTHS; j++) {
+            let azimuth = PI * (f32(j) + 0.5) / f32(PEAK_SPREAD_AZIMUTHS);
+            sum += dual_lobe_phase(cos_theta * cos_turn + sin_theta * sin_turn * cos(azimuth), clouds.phase_g_forward, clouds.phase_g_back, clouds.phase_blend);
+        }
+    }
+    return sum / f32(PEAK_SPREAD_ANGLES * PEAK_SPREAD_AZIMUTHS);
 }
 
 // How deep the light the forward peak turns out of a beam going down (sun cosine mu0) starts its
