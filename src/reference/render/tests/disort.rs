@@ -414,3 +414,37 @@ fn the_peak_turns_only_a_grazing_beam() {
     println!("sun 5° up: light going up {up:.3}, going down {down:.3}");
     assert!(up < down && down < 1.0, "{up}, {down}");
 }
+
+/// Thin decks (optical depth 0.5 and 2) seen straight up under a sun up to 40° from the zenith,
+/// sky off and on: within the validation's targets (10 % at 0.5, 5 % from 2 on). Their light
+/// outside the forward peak is mostly the sun's scattered once or twice, and the part the peak
+/// has already turned scatters by the phase spread over the peak's angles
+/// ([`peak_spread_phase`]); without that, 2 deep under a sun 40° from the zenith was 9.7 % too
+/// dark. (Seen at 45°, and under lower suns, they are not yet within the targets:
+/// [`slab_radiances_against_disort`] prints them.)
+#[test]
+fn thin_decks_seen_straight_up_under_a_high_sun_meet_the_target() {
+    let mut failures = String::new();
+    for case in table()
+        .iter()
+        .filter(|case| case.optical_depth < 8.0 && case.sun_zenith_deg <= 40.0)
+    {
+        let tolerance = if case.optical_depth >= 2.0 {
+            TOLERANCE_THICK
+        } else {
+            TOLERANCE_THIN
+        };
+        let error = crate_radiance(case, 0) / case.radiance[0] - 1.0;
+        if error.abs() > tolerance {
+            failures += &format!(
+                "optical depth {}, sun {}°, sky {}: {:+.1} % (target {:.0} %)\n",
+                case.optical_depth,
+                case.sun_zenith_deg,
+                case.sky_radiance,
+                100.0 * error,
+                100.0 * tolerance
+            );
+        }
+    }
+    assert!(failures.is_empty(), "beyond the target:\n{failures}");
+}
