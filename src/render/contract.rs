@@ -111,6 +111,7 @@ fn rust_constants() -> Vec<(&'static str, Vec<f64>)> {
         ("PEAK_ORDERS", scalar(PEAK_ORDERS as f64)),
         ("PEAK_SPREAD_ANGLES", scalar(PEAK_SPREAD_ANGLES as f64)),
         ("PEAK_SPREAD_AZIMUTHS", scalar(PEAK_SPREAD_AZIMUTHS as f64)),
+        ("QUADRATURE_MU", scalar(QUADRATURE_MU)),
         ("HALO_ANGLE_DEG", scalar(HALO_ANGLE_DEG)),
         ("HALO_EDGE_DEG", scalar(HALO_EDGE_DEG)),
         ("HALO_FADE_DEG", scalar(HALO_FADE_DEG)),

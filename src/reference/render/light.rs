@@ -102,6 +102,12 @@ pub const PEAK_ORDERS: usize = 2;
 /// lights the layer through its top.
 pub const MIN_DIFFUSE_MU_SUN: f64 = 0.02;
 
+/// The quadrature two-stream's cosine `1/√3` (Meador & Weaver 1980, "Two-stream approximations
+/// to radiative transfer in planetary atmospheres"): a thick cloud sends out the diffuse light
+/// the sun brings in in proportion to `μ₀ + 1/√3` ([`sun_diffuse_constants`],
+/// [`peak_injection_depth`]). WGSL twin: `QUADRATURE_MU`.
+pub const QUADRATURE_MU: f64 = 0.577_350_269_189_625_8;
+
 /// The δ-Eddington constants of the dual-lobe phase (Joseph, Wiscombe & Weinman 1976, "The
 /// Delta-Eddington Approximation for Radiative Flux Transfer"), computed once per march from
 /// [`MarchSettings`]' phase. WGSL twin: the uniforms `forward_fraction`, `scaled_asymmetry` and
@@ -191,7 +197,6 @@ pub fn peak_upward_share(phase: &EddingtonPhase, mu0: f64) -> f64 {
 pub fn peak_injection_depth(phase: &EddingtonPhase, mu0: f64) -> f64 {
     let sin_a = mu0.clamp(0.0, 1.0);
     let cos_a = (1.0 - sin_a * sin_a).max(0.0).sqrt();
-    let quadrature = 1.0 / 3f64.sqrt();
     let sum: f64 = phase
         .peak_spread
         .iter()
@@ -199,11 +204,11 @@ pub fn peak_injection_depth(phase: &EddingtonPhase, mu0: f64) -> f64 {
             let cos_theta = 1.0 / (1.0 + tan_theta * tan_theta).sqrt();
             let (along, across) = (sin_a * cos_theta, cos_a * tan_theta * cos_theta);
             if across <= along {
-                return along + quadrature;
+                return along + QUADRATURE_MU;
             }
             // Going down for the azimuths within φc of straight down.
             let cos_c = -along / across;
-            ((along + quadrature) * cos_c.acos() + across * (1.0 - cos_c * cos_c).sqrt())
+            ((along + QUADRATURE_MU) * cos_c.acos() + across * (1.0 - cos_c * cos_c).sqrt())
                 / std::f64::consts::PI
         })
         .sum();
@@ -220,8 +225,7 @@ pub fn peak_injection_depth(phase: &EddingtonPhase, mu0: f64) -> f64 {
 /// or more up; for a sun 5° up about 0.85 and 0.90. WGSL twin: `grazing_peak_factors`.
 pub fn grazing_peak_factors(phase: &EddingtonPhase, mu0: f64) -> [f64; 2] {
     let f = phase.forward_fraction;
-    let quadrature = 1.0 / 3f64.sqrt();
-    let depth = |mu0: f64| (1.0 - f) + f * peak_injection_depth(phase, mu0) / (mu0 + quadrature);
+    let depth = |mu0: f64| (1.0 - f) + f * peak_injection_depth(phase, mu0) / (mu0 + QUADRATURE_MU);
     [
         1.0 - f * peak_upward_share(phase, mu0),
         depth(mu0) / depth(1.0),
@@ -569,9 +573,8 @@ pub fn peak_orders(
 /// `validation/README.md` has the decks before and after. WGSL twin: `sun_diffuse_constants`.
 pub fn sun_diffuse_constants(mu0: f64, through: f64, transport: f64) -> [f64; 2] {
     let through = through.clamp(0.0, 1.0);
-    let quadrature = 1.0 / 3f64.sqrt();
     let eddington = 3.0 * mu0 * (mu0 + 2.0 / 3.0);
-    let scattered = 3.0 * mu0 * (mu0 + quadrature) * (5.0 / 3.0) / (1.0 + quadrature);
+    let scattered = 3.0 * mu0 * (mu0 + QUADRATURE_MU) * (5.0 / 3.0) / (1.0 + QUADRATURE_MU);
     let injected = through * eddington + (1.0 - through) * scattered;
     let c1 = (injected - through * (3.0 * mu0 * mu0 - 2.0 * mu0)) / transport;
     [injected - 2.0 / 3.0 * c1, c1]

@@ -25,6 +25,8 @@ const PEAK_ORDERS: u32 = 2u;
 const PEAK_SPREAD_ANGLES: u32 = 4u;
 // Azimuths `peak_spread_phase` averages over. Rust: `PEAK_SPREAD_AZIMUTHS`.
 const PEAK_SPREAD_AZIMUTHS: u32 = 8u;
+// The quadrature two-stream's cosine 1/sqrt(3). Rust: `QUADRATURE_MU`.
+const QUADRATURE_MU: f32 = 0.5773502691896258;
 const MAX_LIGHT_STEPS: u32 = 64u;
 // Where each light-march step is sampled: its midpoint, whatever the view ray's jitter (an
 // average of e^-tau over offsets is biased bright). Rust: `LIGHT_SAMPLE_OFFSET`.
@@ -236,7 +238,6 @@ fn peak_spread_phase(cos_theta_in: f32) -> f32 {
 fn peak_injection_depth(mu0: f32) -> f32 {
     let sin_a = saturate(mu0);
     let cos_a = sqrt(max(1.0 - sin_a * sin_a, 0.0));
-    let quadrature = 0.57735026918962576;
     var sum = 0.0;
     for (var k = 0u; k < PEAK_SPREAD_ANGLES; k++) {
         let tan_theta = clouds.peak_spread[k];
@@ -244,10 +245,10 @@ fn peak_injection_depth(mu0: f32) -> f32 {
         let along = sin_a * cos_theta;
         let across = cos_a * tan_theta * cos_theta;
         if across <= along {
-            sum += along + quadrature;
+            sum += along + QUADRATURE_MU;
         } else {
             let cos_c = -along / across;
-            sum += ((along + quadrature) * acos(cos_c) + across * sqrt(max(1.0 - cos_c * cos_c, 0.0))) / PI;
+            sum += ((along + QUADRATURE_MU) * acos(cos_c) + across * sqrt(max(1.0 - cos_c * cos_c, 0.0))) / PI;
         }
     }
     return sum / f32(PEAK_SPREAD_ANGLES);
@@ -257,9 +258,8 @@ fn peak_injection_depth(mu0: f32) -> f32 {
 // peak does to a grazing beam. Rust: `grazing_peak_factors`.
 fn grazing_peak_factors(mu0: f32) -> vec2<f32> {
     let f = clouds.forward_fraction;
-    let quadrature = 0.57735026918962576;
-    let depth = (1.0 - f) + f * peak_injection_depth(mu0) / (mu0 + quadrature);
-    let overhead = (1.0 - f) + f * peak_injection_depth(1.0) / (1.0 + quadrature);
+    let depth = (1.0 - f) + f * peak_injection_depth(mu0) / (mu0 + QUADRATURE_MU);
+    let overhead = (1.0 - f) + f * peak_injection_depth(1.0) / (1.0 + QUADRATURE_MU);
     return vec2<f32>(1.0 - f * peak_upward_share(mu0), depth / overhead);
 }
 
@@ -269,9 +269,8 @@ fn grazing_peak_factors(mu0: f32) -> vec2<f32> {
 // the part scattered. Rust: `sun_diffuse_constants`.
 fn sun_diffuse_constants(mu0: f32, through_in: f32, transport: f32) -> vec2<f32> {
     let through = saturate(through_in);
-    let quadrature = 0.57735026918962576;
     let eddington = 3.0 * mu0 * (mu0 + 2.0 / 3.0);
-    let scattered = 3.0 * mu0 * (mu0 + quadrature) * (5.0 / 3.0) / (1.0 + quadrature);
+    let scattered = 3.0 * mu0 * (mu0 + QUADRATURE_MU) * (5.0 / 3.0) / (1.0 + QUADRATURE_MU);
     let injected = through * eddington + (1.0 - through) * scattered;
     let c1 = (injected - through * (3.0 * mu0 * mu0 - 2.0 * mu0)) / transport;
     return vec2<f32>(injected - 2.0 / 3.0 * c1, c1);

@@ -253,26 +253,41 @@ fn slab_radiances_against_disort() {
 /// bright.
 #[test]
 fn thick_decks_meet_the_target_under_every_sun() {
+    let thick: Vec<Case> = table()
+        .into_iter()
+        .filter(|case| case.optical_depth >= 8.0)
+        .collect();
+    let failures = beyond_target(&thick, &[0, 1, 2, 3]);
+    assert!(failures.is_empty(), "beyond the target:\n{failures}");
+}
+
+/// Each view of `cases` (indices into [`VIEWS`]) beyond the validation's target for its
+/// optical depth (10 % below 2, 5 % from 2 on), one line each; empty when all are within.
+fn beyond_target(cases: &[Case], views: &[usize]) -> String {
     let mut failures = String::new();
-    for case in table().iter().filter(|case| case.optical_depth >= 8.0) {
-        for (view, (name, _, _)) in VIEWS.iter().enumerate() {
+    for case in cases {
+        let tolerance = if case.optical_depth >= 2.0 {
+            TOLERANCE_THICK
+        } else {
+            TOLERANCE_THIN
+        };
+        for &view in views {
             let error = crate_radiance(case, view) / case.radiance[view] - 1.0;
-            if error.abs() > TOLERANCE_THICK {
+            if error.abs() > tolerance {
                 failures += &format!(
-                    "optical depth {}, sun {}° from the zenith, sky {}, {name}: {:+.1} %\n",
+                    "optical depth {}, sun {}° from the zenith, sky {}, {}: {:+.1} % (target \
+                     {:.0} %)\n",
                     case.optical_depth,
                     case.sun_zenith_deg,
                     case.sky_radiance,
-                    100.0 * error
+                    VIEWS[view].0,
+                    100.0 * error,
+                    100.0 * tolerance
                 );
             }
         }
     }
-    assert!(
-        failures.is_empty(),
-        "beyond {:.0} % of DISORT:\n{failures}",
-        100.0 * TOLERANCE_THICK
-    );
+    failures
 }
 
 /// The ground under a full deck, lit by the sun and the sky as in a scene and by the sun alone:
@@ -393,26 +408,29 @@ fn the_aureole_under_a_deck_is_as_bright_as_disort_says() {
     assert!(!failed, "{report}");
 }
 
-/// What the forward peak does to a grazing beam changes the light of a sun 20° or more up by
-/// less than 0.5 %, a tenth of the validation's target (the decks DISORT checks there were
-/// within the target without it), and takes light from both ways
-/// under a sun a few degrees up: more from the light going up, which loses the light turned out
-/// through the top, than from the light going down, which the light turned deeper makes up in
-/// part.
+/// What the forward peak does to a grazing beam: no light turned up and out once the sun stands
+/// higher than the peak's largest turning angle (the light going up keeps all of it), and under a
+/// sun a few degrees up less light both ways, more taken from the light going up (which loses
+/// the light turned out) than from the light going down (which the light turned deeper makes up
+/// in part). Printed: both factors from 5° to 90° up. Whether the light going down stays close
+/// enough to 1 under a higher sun is for DISORT to say (`thick_decks_meet_the_target_under_every_sun`).
 #[test]
 fn the_peak_turns_only_a_grazing_beam() {
     let phase = eddington_phase(&MarchSettings::default());
-    for elevation_deg in [20.0_f64, 30.0, 50.0, 70.0, 90.0] {
-        let [up, down] = grazing_peak_factors(&phase, elevation_deg.to_radians().sin());
+    let widest = phase
+        .peak_spread
+        .iter()
+        .fold(0.0_f64, |w, t| w.max(t.atan()));
+    for elevation_deg in [5.0_f64, 10.0, 20.0, 30.0, 50.0, 70.0, 90.0] {
+        let elevation = elevation_deg.to_radians();
+        let [up, down] = grazing_peak_factors(&phase, elevation.sin());
         println!("sun {elevation_deg}° up: light going up {up:.4}, going down {down:.4}");
-        assert!(
-            (up - 1.0).abs() < 5e-3 && (down - 1.0).abs() < 5e-3,
-            "sun {elevation_deg}° up: {up}, {down}"
-        );
+        if elevation > widest {
+            assert_eq!(up, 1.0, "sun {elevation_deg}° up");
+        }
     }
     let [up, down] = grazing_peak_factors(&phase, 5f64.to_radians().sin());
-    println!("sun 5° up: light going up {up:.3}, going down {down:.3}");
-    assert!(up < down && down < 1.0, "{up}, {down}");
+    assert!(up < down && down < 1.0, "sun 5° up: {up}, {down}");
 }
 
 /// Thin decks (optical depth 0.5 and 2) seen straight up under a sun up to 40° from the zenith,
@@ -424,27 +442,10 @@ fn the_peak_turns_only_a_grazing_beam() {
 /// [`slab_radiances_against_disort`] prints them.)
 #[test]
 fn thin_decks_seen_straight_up_under_a_high_sun_meet_the_target() {
-    let mut failures = String::new();
-    for case in table()
-        .iter()
+    let thin: Vec<Case> = table()
+        .into_iter()
         .filter(|case| case.optical_depth < 8.0 && case.sun_zenith_deg <= 40.0)
-    {
-        let tolerance = if case.optical_depth >= 2.0 {
-            TOLERANCE_THICK
-        } else {
-            TOLERANCE_THIN
-        };
-        let error = crate_radiance(case, 0) / case.radiance[0] - 1.0;
-        if error.abs() > tolerance {
-            failures += &format!(
-                "optical depth {}, sun {}°, sky {}: {:+.1} % (target {:.0} %)\n",
-                case.optical_depth,
-                case.sun_zenith_deg,
-                case.sky_radiance,
-                100.0 * error,
-                100.0 * tolerance
-            );
-        }
-    }
+        .collect();
+    let failures = beyond_target(&thin, &[0]);
     assert!(failures.is_empty(), "beyond the target:\n{failures}");
 }
