@@ -144,6 +144,18 @@ struct Args {
     /// repeatable): what the knob costs and what it changes.
     #[arg(long = "set", value_name = "FIELD=VALUE", value_parser = knob)]
     knobs: Vec<(String, String)>,
+    /// With `--time-only`, a knob set to time against each selected preset in the same run
+    /// (`NAME:FIELD=VALUE FIELD=VALUE …`, fields of `VolumetricClouds`, repeatable). Each of
+    /// `--rounds` rounds times the preset and then every variant in turn, and the median of the
+    /// rounds is kept: the machine's speed drifts between runs (by a sixth on lavapipe) more than
+    /// many knobs change the cost, and a drift within the run falls on every variant alike.
+    /// Writes `variants.csv` (see [`time_variants`]) and prints it.
+    #[arg(long = "variant", value_name = "NAME:FIELD=VALUE ...", value_parser = variant,
+          requires = "time_only")]
+    variants: Vec<Variant>,
+    /// Rounds of `--variant` timing; the median is kept.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
+    rounds: u32,
     /// Keep each scene's reference image in this folder and reuse it when it is there (named
     /// by scene, size and reference steps): for runs that change only the presets.
     #[arg(long, value_name = "DIR")]
@@ -224,6 +236,43 @@ fn knob(text: &str) -> Result<(String, String), String> {
     text.split_once('=')
         .map(|(f, v)| (f.trim().to_owned(), v.trim().to_owned()))
         .ok_or_else(|| format!("{text:?} is not FIELD=VALUE"))
+}
+
+/// A `--variant`: a name and the knobs it sets on top of the preset and `--set`.
+#[derive(Clone, Debug)]
+struct Variant {
+    name: String,
+    knobs: Vec<(String, String)>,
+}
+
+/// A `--variant` value: `NAME:FIELD=VALUE FIELD=VALUE …` (no [`SHADOW_KNOB`] fields: the shadow
+/// map is the rig's, shared by every variant).
+fn variant(text: &str) -> Result<Variant, String> {
+    let (name, knobs) = text
+        .split_once(':')
+        .ok_or_else(|| format!("{text:?} is not NAME:FIELD=VALUE ..."))?;
+    let name = name.trim();
+    if name.is_empty() || name.contains(',') {
+        return Err(format!(
+            "{text:?}: the name before ':' must be non-empty, without commas"
+        ));
+    }
+    let knobs = knobs
+        .split_whitespace()
+        .map(knob)
+        .collect::<Result<Vec<_>, _>>()?;
+    if knobs.is_empty() {
+        return Err(format!("{text:?} sets no knob"));
+    }
+    if let Some((field, _)) = knobs.iter().find(|(f, _)| f.starts_with(SHADOW_KNOB)) {
+        return Err(format!(
+            "{text:?}: {field} belongs to the shadow map, which every variant shares (use --set)"
+        ));
+    }
+    Ok(Variant {
+        name: name.to_owned(),
+        knobs,
+    })
 }
 
 /// The prefix of a `--set` knob that changes [`CloudShadows`] rather than the preset.
@@ -994,6 +1043,105 @@ fn time_only(args: &Args) -> Result<(), String> {
     Ok(())
 }
 
+/// `--time-only` with `--variant`: each selected preset (with the `--set` knobs) and each
+/// variant of it timed in turn, `--rounds` times, in each selected scene at each of `--sizes`,
+/// with one layer. Appends to `variants.csv`
+/// (`scene,preset,width,height,variant,knobs,rounds,ms_per_frame,march_ms,ratio`):
+/// `ms_per_frame` the median over the rounds of the cloud cost (as in `times.csv`), `march_ms`
+/// the median of the march pass's GPU time with `--gpu-spans` (empty without), and `ratio` the
+/// variant's `march_ms` (`ms_per_frame` without spans) over the preset's. The preset's own row
+/// is the variant `preset`.
+fn time_variants(args: &Args) -> Result<(), String> {
+    const MARCH_SPAN: &str = "render/clouds/cloud_march";
+    let path = args.out.join("variants.csv");
+    let mut csv = match std::fs::read_to_string(&path) {
+        Ok(text) if !text.trim().is_empty() => text,
+        _ => String::from(
+            "scene,preset,width,height,variant,knobs,rounds,ms_per_frame,march_ms,ratio\n",
+        ),
+    };
+    let median = |mut values: Vec<f64>| {
+        values.sort_by(f64::total_cmp);
+        values[values.len() / 2]
+    };
+    let sizes = if args.sizes.is_empty() {
+        vec![args.size()]
+    } else {
+        args.sizes.clone()
+    };
+    let own = Variant {
+        name: "preset".into(),
+        knobs: Vec::new(),
+    };
+    let variants: Vec<&Variant> = std::iter::once(&own).chain(&args.variants).collect();
+    for size in sizes {
+        let mut rig = bench_rig(args, size)?;
+        let scenes = bench_scenes()
+            .into_iter()
+            .filter(|s| args.scene.as_deref().is_none_or(|name| name == s.name));
+        for scene in scenes {
+            for (preset, settings) in selected_presets(args) {
+                let preset_settings = with_knobs(settings, &args.knobs)?;
+                // Per variant: the cloud cost and the march's span of each round.
+                let mut times = vec![(Vec::new(), Vec::new()); variants.len()];
+                for round in 0..args.rounds {
+                    for (variant, (costs, marches)) in variants.iter().zip(&mut times) {
+                        let mut settings = with_knobs(preset_settings.clone(), &variant.knobs)?;
+                        settings.jitter &= !args.no_jitter;
+                        let measured = measure(&mut rig, &scene, &settings, args.frames, false);
+                        costs.push(measured.ms);
+                        if args.gpu_spans {
+                            let spans = print_gpu_spans(&mut rig, preset);
+                            if let Some((_, ms)) = spans.iter().find(|(p, _)| p == MARCH_SPAN) {
+                                marches.push(*ms);
+                            }
+                        }
+                        eprintln!(
+                            "variant,{},{preset},{},round {},{:.3} ms",
+                            scene.name,
+                            variant.name,
+                            round + 1,
+                            measured.ms
+                        );
+                    }
+                }
+                let medians: Vec<(f64, Option<f64>)> = times
+                    .into_iter()
+                    .map(|(costs, marches)| {
+                        let march = (marches.len() == costs.len()).then(|| median(marches));
+                        (median(costs), march)
+                    })
+                    .collect();
+                let (own_cost, own_march) = medians[0];
+                for (variant, (cost, march)) in variants.iter().zip(&medians) {
+                    let ratio = match (march, own_march) {
+                        (Some(m), Some(o)) => m / o,
+                        _ => cost / own_cost,
+                    };
+                    let knobs: Vec<String> = variant
+                        .knobs
+                        .iter()
+                        .map(|(k, v)| format!("{k}={v}"))
+                        .collect();
+                    csv.push_str(&format!(
+                        "{},{preset},{},{},{},{},{},{cost:.3},{},{ratio:.3}\n",
+                        scene.name,
+                        size.x,
+                        size.y,
+                        variant.name,
+                        knobs.join(" "),
+                        args.rounds,
+                        march.map_or(String::new(), |m| format!("{m:.3}")),
+                    ));
+                }
+            }
+        }
+    }
+    std::fs::write(&path, &csv).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    print!("{csv}");
+    Ok(())
+}
+
 /// Forgets the render diagnostics' history, so the next [`print_gpu_spans`] averages only the
 /// frames after this.
 fn clear_gpu_spans(rig: &mut CloudRig) {
@@ -1085,6 +1233,9 @@ fn run(args: &Args) -> Result<(), String> {
     }
     std::fs::create_dir_all(args.out.join("images"))
         .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
+    if args.time_only && !args.variants.is_empty() {
+        return time_variants(args);
+    }
     if args.time_only {
         return time_only(args);
     }
