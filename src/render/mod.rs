@@ -264,14 +264,14 @@ pub struct VolumetricClouds {
     /// sun lines cross several clouds between the map's knots (the cloud top and the altitudes
     /// of optical depths 1 and 4). Without a map
     /// (shadows off, night) the light march runs everywhere. It saves where a ray's samples
-    /// take more than four light steps. Default 0 (every such sample; `LOW`, `HIGH` and
-    /// `ULTRA` `f32::INFINITY`: never).
+    /// take more than four light steps. Default 0 (every such sample; `HIGH` and `ULTRA`
+    /// `f32::INFINITY`: never).
     pub sun_from_shadow_map_m: f32,
     /// Shortest primary step, metres: a short interval (a thin layer, a fog bank the camera
     /// looks up through) is marched in fewer than [`VolumetricClouds::primary_steps`] steps, one
     /// per `min_step_m`. Steps finer than the detail noise's texels (700 m / 32 = 22 m by
-    /// default) add little. Default 25 m (`LOW` 30 m, `HIGH` 20 m, `ULTRA` 5 m); 0 always
-    /// marches every primary step.
+    /// default) add little. Default 40 m (`HIGH` 20 m, `ULTRA` 5 m); 0 always marches every
+    /// primary step.
     pub min_step_m: f32,
     /// Most extra light-march steps per pixel footprint. A low sun's light path through a
     /// layer is kilometres long, so it takes [`VolumetricClouds::light_steps`] per 2 km of
@@ -295,7 +295,7 @@ pub struct VolumetricClouds {
     /// Away from the sun the phase function sends a sample's direct sunlight toward the camera
     /// weakly, and its sky light and diffuse light, which depend far less on the sun's optical
     /// depth, carry it, so an error in that depth costs the image little there. 1: every ray
-    /// takes every light step. Default 0.5 (`LOW` 0.3, `ULTRA` 1).
+    /// takes every light step. Default 0.3 (`HIGH` 0.5, `ULTRA` 1).
     pub light_steps_away_from_sun: f32,
     /// Side of each layer's weather map, in weather-noise texels ([`weather_map`]): the march
     /// reads a layer's local coverage and the fine warp's curl from the map within
@@ -316,28 +316,24 @@ pub struct VolumetricClouds {
 }
 
 impl VolumetricClouds {
-    /// The cheapest: [`VolumetricClouds::MEDIUM`]'s quarter resolution with 160 primary and 12
-    /// light steps (4 for rays 60° or more from the sun), a 30 m shortest primary step, 8 haze
-    /// steps, no light shafts, and rays that stop at a view transmittance of 0.03 (three times
-    /// `MEDIUM`'s: most of a ray's cost lies in the cloud past its first cloudy step, and the
-    /// light beyond the stop is added as if the medium went on). Measured time and error:
-    /// `docs/performance.md`.
+    /// The cheapest: [`VolumetricClouds::MEDIUM`]'s quarter resolution, shortest step and sun
+    /// from the shadow map with 160 primary and 12 light steps (about 4 for rays 60° or more
+    /// from the sun), 8 haze steps, no light shafts, and rays that stop at a view transmittance
+    /// of 0.03 (three times `MEDIUM`'s: most of a ray's cost lies in the cloud past its first
+    /// cloudy step, and the light beyond the stop is added as if the medium went on). Measured
+    /// time and error: `docs/performance.md`.
     pub const LOW: Self = Self {
         primary_steps: 160,
         light_steps: 12,
         transmittance_cutoff: 0.03,
-        light_steps_away_from_sun: 0.3,
         haze_steps: 8,
         light_shafts: false,
-        min_step_m: 30.0,
-        // Its rays away from the sun take 4 light steps or fewer, no more than the map's near
-        // march: the map would add its reads and save none.
-        sun_from_shadow_map_m: f32::INFINITY,
         ..Self::MEDIUM
     };
     /// The default balance of speed and quality: a quarter of the resolution per axis with
-    /// temporal upsampling, 192 primary and 14 light steps (7 for rays 60° or more from the sun,
-    /// at most two extra light steps per pixel footprint) on a sixteenth of the rays. Each
+    /// temporal upsampling, 192 primary and 14 light steps (about 4 for rays 60° or more from the
+    /// sun, at most two extra light steps per pixel footprint) and a 40 m shortest primary step
+    /// on a sixteenth of the rays. Each
     /// frame the rays go through another pixel of their 4 × 4 block, and the accumulation
     /// assembles the full resolution over sixteen frames ([`composite::TemporalUpsampling`]). A
     /// still view converges close to a full-resolution march; while the camera moves the clouds
@@ -360,22 +356,23 @@ impl VolumetricClouds {
         temporal_blend: 0.1,
         light_shaft_resolution_scale: 0.25,
         sun_from_shadow_map_m: 0.0,
-        min_step_m: 25.0,
+        min_step_m: 40.0,
         light_steps_per_footprint: 2.0,
         light_step_optical_depth: crate::reference::render::LIGHT_STEP_OPTICAL_DEPTH as f32,
-        light_steps_away_from_sun: 0.5,
+        light_steps_away_from_sun: 0.3,
         weather_map_size: crate::reference::weather_map::DEFAULT_WEATHER_MAP_SIZE,
         reset_history: false,
     };
     /// More steps for close-ups and stills: [`VolumetricClouds::MEDIUM`]'s quarter resolution
-    /// with 384 primary and 24 light steps, a 20 m shortest primary step, 16 haze steps, and
-    /// every sample's sun from the light march. It costs about twice `MEDIUM`.
+    /// with 384 primary and 24 light steps (12 for rays 60° or more from the sun), a 20 m
+    /// shortest primary step, 16 haze steps, and every sample's sun from the light march.
     /// Measured time and error: `docs/performance.md`.
     pub const HIGH: Self = Self {
         primary_steps: 384,
         light_steps: 24,
         haze_steps: 16,
         min_step_m: 20.0,
+        light_steps_away_from_sun: 0.5,
         sun_from_shadow_map_m: f32::INFINITY,
         ..Self::MEDIUM
     };
