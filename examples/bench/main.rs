@@ -982,6 +982,22 @@ fn bench_rig(args: &Args, size: UVec2) -> Result<CloudRig, String> {
     Ok(rig)
 }
 
+/// The sizes `--time-only` times at: `--sizes`, or `--width`×`--height`.
+fn timed_sizes(args: &Args) -> Vec<UVec2> {
+    if args.sizes.is_empty() {
+        vec![args.size()]
+    } else {
+        args.sizes.clone()
+    }
+}
+
+/// The bench scenes `--time-only` times: `--scene`'s, or all of them.
+fn timed_scenes(args: &Args) -> impl Iterator<Item = Scene> + '_ {
+    bench_scenes()
+        .into_iter()
+        .filter(|s| args.scene.as_deref().is_none_or(|name| name == s.name))
+}
+
 fn time_only(args: &Args) -> Result<(), String> {
     let path = args.out.join("times.csv");
     let mut csv = match std::fs::read_to_string(&path) {
@@ -995,17 +1011,9 @@ fn time_only(args: &Args) -> Result<(), String> {
     };
     let knobs: Vec<String> = args.knobs.iter().map(|(k, v)| format!("{k}={v}")).collect();
     let knobs = knobs.join(" ");
-    let sizes = if args.sizes.is_empty() {
-        vec![args.size()]
-    } else {
-        args.sizes.clone()
-    };
-    for size in sizes {
+    for size in timed_sizes(args) {
         let mut rig = bench_rig(args, size)?;
-        let scenes = bench_scenes()
-            .into_iter()
-            .filter(|s| args.scene.as_deref().is_none_or(|name| name == s.name));
-        for scene in scenes {
+        for scene in timed_scenes(args) {
             for &count in &args.layers {
                 let stacked = Scene {
                     layers: stacked_layers(&scene.layers, count),
@@ -1064,22 +1072,14 @@ fn time_variants(args: &Args) -> Result<(), String> {
         values.sort_by(f64::total_cmp);
         values[values.len() / 2]
     };
-    let sizes = if args.sizes.is_empty() {
-        vec![args.size()]
-    } else {
-        args.sizes.clone()
-    };
     let own = Variant {
         name: "preset".into(),
         knobs: Vec::new(),
     };
     let variants: Vec<&Variant> = std::iter::once(&own).chain(&args.variants).collect();
-    for size in sizes {
+    for size in timed_sizes(args) {
         let mut rig = bench_rig(args, size)?;
-        let scenes = bench_scenes()
-            .into_iter()
-            .filter(|s| args.scene.as_deref().is_none_or(|name| name == s.name));
-        for scene in scenes {
+        for scene in timed_scenes(args) {
             for (preset, settings) in selected_presets(args) {
                 let preset_settings = with_knobs(settings, &args.knobs)?;
                 // Per variant: the cloud cost and the march's span of each round.

@@ -1784,8 +1784,13 @@ fn a_far_layer_does_not_starve_the_layer_around_the_camera() {
             // Single scattering: the δ-scaled light lets the far layer show through the near
             // one, and its own error (with the steps it gets) with it; the step shares are the
             // same whatever the light.
+            // Half the light steps on rays away from the sun, as the test was written with:
+            // with 0.3 of them (`MEDIUM` now) the stratus alone is ten times closer to its
+            // converged march at 64 steps (RMSE 0.0003 against 0.003), while the two layers'
+            // error stays 0.005, so the bound would measure the far layer's own error.
             settings: VolumetricClouds {
                 multiple_scattering: false,
+                light_steps_away_from_sun: 0.5,
                 ..settings(steps)
             },
         });
