@@ -998,17 +998,22 @@ fn timed_scenes(args: &Args) -> impl Iterator<Item = Scene> + '_ {
         .filter(|s| args.scene.as_deref().is_none_or(|name| name == s.name))
 }
 
+/// The CSV at `path` to append rows to: its text, or `header` alone when it is absent or empty.
+fn appended_csv(path: &std::path::Path, header: &str) -> String {
+    match std::fs::read_to_string(path) {
+        Ok(text) if !text.trim().is_empty() => text,
+        _ => format!("{header}\n"),
+    }
+}
+
 fn time_only(args: &Args) -> Result<(), String> {
     let path = args.out.join("times.csv");
-    let mut csv = match std::fs::read_to_string(&path) {
-        Ok(text) if !text.trim().is_empty() => text,
-        _ => String::from("scene,preset,width,height,layers,ms_per_frame\n"),
-    };
+    let mut csv = appended_csv(&path, "scene,preset,width,height,layers,ms_per_frame");
     let spans_path = args.out.join("spans.csv");
-    let mut spans_csv = match std::fs::read_to_string(&spans_path) {
-        Ok(text) if !text.trim().is_empty() => text,
-        _ => String::from("scene,preset,width,height,layers,shadows,knobs,pass,ms\n"),
-    };
+    let mut spans_csv = appended_csv(
+        &spans_path,
+        "scene,preset,width,height,layers,shadows,knobs,pass,ms",
+    );
     let knobs: Vec<String> = args.knobs.iter().map(|(k, v)| format!("{k}={v}")).collect();
     let knobs = knobs.join(" ");
     for size in timed_sizes(args) {
@@ -1062,16 +1067,10 @@ fn time_only(args: &Args) -> Result<(), String> {
 fn time_variants(args: &Args) -> Result<(), String> {
     const MARCH_SPAN: &str = "render/clouds/cloud_march";
     let path = args.out.join("variants.csv");
-    let mut csv = match std::fs::read_to_string(&path) {
-        Ok(text) if !text.trim().is_empty() => text,
-        _ => String::from(
-            "scene,preset,width,height,variant,knobs,rounds,ms_per_frame,march_ms,ratio\n",
-        ),
-    };
-    let median = |mut values: Vec<f64>| {
-        values.sort_by(f64::total_cmp);
-        values[values.len() / 2]
-    };
+    let mut csv = appended_csv(
+        &path,
+        "scene,preset,width,height,variant,knobs,rounds,ms_per_frame,march_ms,ratio",
+    );
     let own = Variant {
         name: "preset".into(),
         knobs: Vec::new(),
@@ -1108,8 +1107,11 @@ fn time_variants(args: &Args) -> Result<(), String> {
                 let medians: Vec<(f64, Option<f64>)> = times
                     .into_iter()
                     .map(|(costs, marches)| {
-                        let march = (marches.len() == costs.len()).then(|| median(marches));
-                        (median(costs), march)
+                        // Every round timed the march, or the column stays empty.
+                        let march = (marches.len() == costs.len())
+                            .then(|| report::median(marches))
+                            .flatten();
+                        (report::median(costs).unwrap_or(f64::NAN), march)
                     })
                     .collect();
                 let (own_cost, own_march) = medians[0];
