@@ -427,8 +427,17 @@ fn the_peak_turns_only_a_grazing_beam() {
         println!("sun {elevation_deg}° up: light going up {up:.4}, going down {down:.4}");
         if elevation > widest {
             assert_eq!(up, 1.0, "sun {elevation_deg}° up");
+            // The light going down starts no deeper than the overhead sun's by more than the
+            // slab target: above the peak's widest angle the factor alone may not move a deck's
+            // light beyond it.
+            assert!(
+                (down - 1.0).abs() < TOLERANCE_THICK,
+                "sun {elevation_deg}° up: {down}"
+            );
         }
     }
+    // The deeper start is measured against the overhead sun's.
+    assert_eq!(grazing_peak_factors(&phase, 1.0)[1], 1.0);
     let [up, down] = grazing_peak_factors(&phase, 5f64.to_radians().sin());
     assert!(up < down && down < 1.0, "sun 5° up: {up}, {down}");
 }
