@@ -174,6 +174,7 @@ fn main() -> AppExit {
     app.add_plugins((
         common::default_plugins(&args, "bevy_cloudscape: Bern"),
         CloudscapePlugin,
+        MaterialPlugin::<TerrainMaterial>::default(),
     ))
     // The atmosphere's environment map lights the terrain instead.
     .insert_resource(GlobalAmbientLight::NONE)

@@ -14,6 +14,7 @@ pub(crate) fn spawn_scene(
     options: Res<BernOptions>,
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
+    mut terrain_materials: ResMut<Assets<TerrainMaterial>>,
     mut media: ResMut<Assets<ScatteringMedium>>,
     #[cfg(feature = "live")] mut live: ResMut<bevy_cloudscape::weather::LiveForecasts>,
     #[cfg(feature = "live")] forecasts: Res<Assets<Forecast>>,
@@ -33,7 +34,13 @@ pub(crate) fn spawn_scene(
         },
         Sun::default(),
     ));
-    spawn_ground(&mut commands, &terrain, &mut meshes, &mut materials);
+    spawn_ground(
+        &mut commands,
+        &terrain,
+        &mut meshes,
+        &mut materials,
+        &mut terrain_materials,
+    );
 
     // The layers' altitudes count from Bern's ground, on the terrain's planet, which curves
     // around the scene origin.

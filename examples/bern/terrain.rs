@@ -2,6 +2,57 @@
 //! when the DEM cannot be used.
 
 use super::*;
+use bevy::{
+    pbr::{ExtendedMaterial, MaterialExtension},
+    render::render_resource::AsBindGroup,
+    shader::ShaderRef,
+};
+
+/// The terrain's material: the standard material, whose albedo the mesh's vertex colours set,
+/// with the land cover between the vertices drawn per pixel (`assets/shaders/land_cover.wgsl`).
+pub(crate) type TerrainMaterial = ExtendedMaterial<StandardMaterial, LandCover>;
+
+/// What the terrain shows between its vertices (about 200 m apart): fields with hedges between
+/// them and woods on open ground, and the shading of knolls and hollows. Each fades toward its
+/// mean where a pixel covers more ground than it can show.
+#[derive(Asset, AsBindGroup, Reflect, Debug, Clone)]
+pub(crate) struct LandCover {
+    /// Mean width of a field, metres. The Swiss Plateau's fields and meadows are a few hundred
+    /// metres across.
+    #[uniform(100)]
+    field_size_m: f32,
+    /// Share of the open ground (the mesh's meadow) under woods, 0.1–0.4. Forest covers about a
+    /// quarter of the Plateau, in woods of a few hundred metres to kilometres.
+    #[uniform(100)]
+    wood_share: f32,
+    /// Height of the knolls and hollows, metres.
+    #[uniform(100)]
+    relief_m: f32,
+    /// Width of the hedges and tree lines between fields, metres.
+    #[uniform(100)]
+    hedge_m: f32,
+}
+
+impl Default for LandCover {
+    fn default() -> Self {
+        Self {
+            field_size_m: 250.0,
+            wood_share: 0.25,
+            relief_m: 12.0,
+            hedge_m: 8.0,
+        }
+    }
+}
+
+impl MaterialExtension for LandCover {
+    fn fragment_shader() -> ShaderRef {
+        "shaders/land_cover.wgsl".into()
+    }
+
+    fn deferred_fragment_shader() -> ShaderRef {
+        "shaders/land_cover.wgsl".into()
+    }
+}
 
 pub(crate) fn terrain_settings() -> TerrainSettings {
     TerrainSettings::default()
@@ -45,6 +96,7 @@ pub(crate) fn spawn_ground(
     terrain: &Terrain,
     meshes: &mut Assets<Mesh>,
     materials: &mut Assets<StandardMaterial>,
+    terrain_materials: &mut Assets<TerrainMaterial>,
 ) {
     let Some(mesh) = &terrain.mesh else {
         commands.spawn((
@@ -72,11 +124,14 @@ pub(crate) fn spawn_ground(
     commands.spawn((
         Name::new("terrain"),
         Mesh3d(meshes.add(ground)),
-        MeshMaterial3d(materials.add(StandardMaterial {
-            // White, so the vertex colours are the albedo.
-            base_color: Color::WHITE,
-            perceptual_roughness: 0.9,
-            ..default()
+        MeshMaterial3d(terrain_materials.add(ExtendedMaterial {
+            base: StandardMaterial {
+                // White, so the vertex colours are the albedo.
+                base_color: Color::WHITE,
+                perceptual_roughness: 0.9,
+                ..default()
+            },
+            extension: LandCover::default(),
         })),
     ));
     let water = &mesh.water;
