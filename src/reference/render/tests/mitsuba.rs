@@ -15,8 +15,8 @@ use std::fmt::Write as _;
 const VOLUME: &str = "validation/mitsuba/volumes/cumulus.vol";
 /// The grid: x and z over ±`HALF_WIDTH_M`, y over the layer, cells of this size.
 const HALF_WIDTH_M: f64 = 12_000.0;
-const CELL_M: f64 = 100.0;
-const CELL_Y_M: f64 = 50.0;
+const CELL_M: f64 = 50.0;
+const CELL_Y_M: f64 = 25.0;
 /// The base-to-top ratio the validation asks of `HIGH`.
 const RATIO_TARGET: f64 = 0.15;
 
