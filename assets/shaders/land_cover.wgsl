@@ -31,12 +31,12 @@ struct LandCover {
     relief_m: f32,
     // Width of the hedges and tree lines between fields, m.
     hedge_m: f32,
+    // Linear albedo of a wood seen from above: the terrain palette's forest (rgb).
+    wood: vec4<f32>,
 }
 
 @group(#{MATERIAL_BIND_GROUP}) @binding(100) var<uniform> land: LandCover;
 
-// Linear albedo of a wood seen from above (the terrain palette's forest).
-const WOOD: vec3<f32> = vec3<f32>(0.0232, 0.0595, 0.016);
 // Mean width of a wood, m.
 const WOOD_SIZE_M: f32 = 900.0;
 // Width of the patches of moister and drier grass, m.
@@ -144,7 +144,7 @@ fn fragment(in: VertexOutput, @builtin(front_facing) is_front: bool) -> Fragment
     var tint = mix(vec3<f32>(1.0), field_tint(f.y), fields_shown);
     let hedge = (1.0 - smoothstep(0.5 * land.hedge_m, land.hedge_m, f.x))
         * (1.0 - smoothstep(0.5, 2.0, footprint / land.hedge_m));
-    tint = mix(tint, WOOD / max(colour, vec3<f32>(1e-4)), 0.8 * open * hedge);
+    tint = mix(tint, land.wood.rgb / max(colour, vec3<f32>(1e-4)), 0.8 * open * hedge);
     // Woods over open ground: kept at every distance (they are as large as several vertices),
     // their edges as soft as a pixel.
     let wood_noise = fbm(p / WOOD_SIZE_M, 31u);
@@ -153,10 +153,9 @@ fn fragment(in: VertexOutput, @builtin(front_facing) is_front: bool) -> Fragment
     // 0.1 and 0.4, within 0.01 of the measured quantiles).
     let level = 0.72 - 0.44 * land.wood_share;
     let wood = open * smoothstep(level - edge, level + edge, wood_noise);
-    tint = mix(tint, WOOD / max(colour, vec3<f32>(1e-4)), wood);
-    // Grass in every field: moister and drier, mown and standing patches, faded where a pixel
-    // covers several.
-    // Four octaves from GRASS_M down to tufts, each faded where a pixel covers it.
+    tint = mix(tint, land.wood.rgb / max(colour, vec3<f32>(1e-4)), wood);
+    // Grass in every field: moister and drier, mown and standing patches, in four octaves from
+    // GRASS_M down to tufts, each faded where a pixel covers it.
     var patches = 0.0;
     var scale = GRASS_M;
     var amplitude = 0.5;
@@ -173,7 +172,7 @@ fn fragment(in: VertexOutput, @builtin(front_facing) is_front: bool) -> Fragment
     tint *= mix(1.0, 0.55 + 0.9 * value_noise(p / CROWN_M, 41u), forest);
     pbr_input.material.base_color = vec4<f32>(colour * tint, pbr_input.material.base_color.a);
     // Knolls and hollows: the normal of the relief, faded where a pixel covers its wavelength.
-    let e = 0.25 * RELIEF_WAVELENGTH_M / 4.0;
+    let e = RELIEF_WAVELENGTH_M / 16.0;
     let slope = vec2<f32>(relief(p + vec2<f32>(e, 0.0)) - relief(p - vec2<f32>(e, 0.0)),
         relief(p + vec2<f32>(0.0, e)) - relief(p - vec2<f32>(0.0, e))) / (2.0 * e);
     let relief_shown = 1.0 - smoothstep(0.05, 0.25, footprint / RELIEF_WAVELENGTH_M);

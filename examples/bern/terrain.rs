@@ -31,6 +31,9 @@ pub(crate) struct LandCover {
     /// Width of the hedges and tree lines between fields, metres.
     #[uniform(100)]
     hedge_m: f32,
+    /// Linear albedo of the woods: the terrain palette's forest, as the mesh's own woods.
+    #[uniform(100)]
+    wood: Vec4,
 }
 
 impl Default for LandCover {
@@ -40,6 +43,7 @@ impl Default for LandCover {
             wood_share: 0.25,
             relief_m: 12.0,
             hedge_m: 8.0,
+            wood: Vec4::from_array(terrain_settings().palette.forest),
         }
     }
 }
