@@ -33,6 +33,12 @@ struct LandCover {
     hedge_m: f32,
     // Linear albedo of a wood seen from above: the terrain palette's forest (rgb).
     wood: vec4<f32>,
+    // Linear albedo of snow (rgb).
+    snow: vec4<f32>,
+    // Height where snow is half-way in on level ground, m above sea level (world y).
+    snow_line_m: f32,
+    // Width of the snow's transition around the snow line, m.
+    snow_transition_m: f32,
 }
 
 @group(#{MATERIAL_BIND_GROUP}) @binding(100) var<uniform> land: LandCover;
@@ -45,6 +51,12 @@ const GRASS_M: f32 = 30.0;
 const CROWN_M: f32 = 8.0;
 // Wavelength of the longest relief octave, m.
 const RELIEF_WAVELENGTH_M: f32 = 150.0;
+// How much lower snow lies on a slope facing north than on level ground, and higher on one
+// facing south, m: the shaded side keeps it longer.
+const SNOW_ASPECT_M: f32 = 150.0;
+// Height of the snow line's patches (drifts, gullies, sunny knolls), m, and their size.
+const SNOW_PATCH_M: f32 = 120.0;
+const SNOW_PATCH_SIZE_M: f32 = 1500.0;
 
 // Chris Wellons' lowbias32 finaliser of the mixed lattice coordinates.
 fn hash(c: vec2<i32>, seed: u32) -> u32 {
@@ -170,7 +182,20 @@ fn fragment(in: VertexOutput, @builtin(front_facing) is_front: bool) -> Fragment
     // where a pixel covers several crowns.
     let forest = max(wood, 1.0 - open) * (1.0 - smoothstep(0.5, 2.0, footprint / CROWN_M));
     tint *= mix(1.0, 0.55 + 0.9 * value_noise(p / CROWN_M, 41u), forest);
-    pbr_input.material.base_color = vec4<f32>(colour * tint, pbr_input.material.base_color.a);
+    // Snow above the snow line, lower on slopes facing north (world -z) and higher on those
+    // facing south, sliding off faces steeper than about 45 degrees (the terrain palette's
+    // rule), in patches along the line.
+    let n = normalize(in.world_normal);
+    let run = length(n.xz);
+    let steepness = run / max(n.y, 1e-3);
+    let north = select(0.0, -n.z / run, run > 1e-4) * smoothstep(0.05, 0.3, steepness);
+    let half = 0.5 * max(land.snow_transition_m, 1.0);
+    let height = in.world_position.y + SNOW_ASPECT_M * north
+        + SNOW_PATCH_M * (2.0 * fbm(p / SNOW_PATCH_SIZE_M, 61u) - 1.0);
+    let snow = smoothstep(land.snow_line_m - half, land.snow_line_m + half, height)
+        * (1.0 - smoothstep(0.9, 1.4, steepness));
+    let albedo = mix(colour * tint, land.snow.rgb, snow);
+    pbr_input.material.base_color = vec4<f32>(albedo, pbr_input.material.base_color.a);
     // Knolls and hollows: the normal of the relief, faded where a pixel covers its wavelength.
     let e = RELIEF_WAVELENGTH_M / 16.0;
     let slope = vec2<f32>(relief(p + vec2<f32>(e, 0.0)) - relief(p - vec2<f32>(e, 0.0)),

@@ -116,7 +116,7 @@ use bevy::{
 };
 use bevy_cloudscape::{
     prelude::*,
-    terrain::{Dem, Summit, TangentPlane, TerrainMesh, TerrainSettings},
+    terrain::{Dem, Summit, TangentPlane, TerrainMesh, TerrainPalette, TerrainSettings},
     weather::{FarForecast, WeatherState},
 };
 use common::{ExampleArgs, HeadlessCapturePlugin, HeadlessProgress, HeadlessShots, MainCamera};
@@ -195,7 +195,14 @@ fn main() -> AppExit {
         Startup,
         (load_terrain, spawn_scene, spawn_photo_overlay).chain(),
     )
-    .add_systems(Update, (apply_view, update_photo_overlay));
+    .add_systems(
+        Update,
+        (
+            apply_view,
+            update_photo_overlay,
+            follow_snow_line.after(CloudscapeSystems::Layers),
+        ),
+    );
 
     if args.headless {
         let mut progress = HeadlessProgress::default();

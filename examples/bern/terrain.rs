@@ -34,6 +34,17 @@ pub(crate) struct LandCover {
     /// Linear albedo of the woods: the terrain palette's forest, as the mesh's own woods.
     #[uniform(100)]
     wood: Vec4,
+    /// Linear albedo of snow: the terrain palette's.
+    #[uniform(100)]
+    snow: Vec4,
+    /// Height where snow is half-way in on level ground, metres above sea level: where the near
+    /// forecast's temperature falls to 1 °C by the standard lapse rate ([`follow_snow_line`]),
+    /// the terrain palette's until a forecast gives one.
+    #[uniform(100)]
+    snow_line_m: f32,
+    /// Width of the snow's transition around the snow line, metres: the terrain palette's.
+    #[uniform(100)]
+    snow_transition_m: f32,
 }
 
 impl Default for LandCover {
@@ -44,6 +55,9 @@ impl Default for LandCover {
             relief_m: 12.0,
             hedge_m: 8.0,
             wood: Vec4::from_array(terrain_settings().palette.forest),
+            snow: Vec4::from_array(TerrainPalette::default().snow),
+            snow_line_m: TerrainPalette::default().snow_line_m,
+            snow_transition_m: TerrainPalette::default().snow_transition_m,
         }
     }
 }
@@ -59,7 +73,80 @@ impl MaterialExtension for LandCover {
 }
 
 pub(crate) fn terrain_settings() -> TerrainSettings {
-    TerrainSettings::default()
+    let mut settings = TerrainSettings::default();
+    // No snow in the vertex colours: the land cover draws it per pixel, where the forecast's
+    // temperature puts it (`follow_snow_line`).
+    settings.palette.snow_line_m = NO_BAKED_SNOW_M;
+    settings
+}
+
+/// A snow line above every summit: the mesh's colours hold no snow.
+const NO_BAKED_SNOW_M: f32 = 100_000.0;
+
+/// Air temperature at which half of the precipitation falls as snow, °C: the middle of
+/// [`snow_fraction_at`](bevy_cloudscape::precipitation::snow_fraction_at)'s 0–2 °C ramp.
+const SNOW_HALF_C: f32 = 1.0;
+
+/// The smallest change of the snow line that updates the terrain's material, metres (each
+/// update uploads the material again).
+const SNOW_LINE_STEP_M: f32 = 5.0;
+
+/// The snow line for a 2 m temperature measured at Bern's ground: the height where the standard
+/// lapse rate brings the air to [`SNOW_HALF_C`], metres above sea level. `None` for a
+/// temperature that is not finite.
+fn snow_line_m(temperature_c: f32) -> Option<f32> {
+    temperature_c.is_finite().then(|| {
+        BERN_GROUND_M
+            + (temperature_c - SNOW_HALF_C) / bevy_cloudscape::precipitation::LAPSE_RATE_K_PER_M
+    })
+}
+
+/// The mean of the forecast's 2 m temperature over the day around `unix_seconds` (hourly
+/// samples from 12 hours before to 11 after), °C: snow on the ground follows the day's warmth,
+/// not the hour's. `None` without a finite temperature in that day.
+fn day_mean_temperature_c(forecast: &Forecast, unix_seconds: f64) -> Option<f32> {
+    let now = unix_seconds.floor() as i64;
+    let temperatures: Vec<f32> = (-12..12)
+        .filter_map(|hour| {
+            forecast
+                .sample(UtcInstant::from_unix_seconds(now + 3600 * hour))
+                .get(bevy_cloudscape::weather::Variable::Temperature)
+        })
+        .filter(|t| t.is_finite())
+        .collect();
+    (!temperatures.is_empty()).then(|| temperatures.iter().sum::<f32>() / temperatures.len() as f32)
+}
+
+/// Moves the terrain's snow line with the near forecast's temperature, the mean of the day
+/// around the scene time ([`day_mean_temperature_c`]). Without a temperature (no forecast yet,
+/// or none in it) the line stays where it was.
+pub(crate) fn follow_snow_line(
+    source: Option<Res<WeatherSource>>,
+    forecasts: Res<Assets<Forecast>>,
+    clock: Res<SceneClock>,
+    grounds: Query<&MeshMaterial3d<TerrainMaterial>>,
+    mut materials: ResMut<Assets<TerrainMaterial>>,
+) {
+    let Some(temperature) = source
+        .as_ref()
+        .and_then(|source| source.near.as_ref())
+        .and_then(|handle| forecasts.get(handle))
+        .and_then(|forecast| day_mean_temperature_c(forecast, clock.unix_seconds()))
+    else {
+        return;
+    };
+    let Some(line) = snow_line_m(temperature) else {
+        return;
+    };
+    for ground in &grounds {
+        let moved = materials
+            .get(&ground.0)
+            .is_some_and(|m| (m.extension.snow_line_m - line).abs() >= SNOW_LINE_STEP_M);
+        if moved && let Some(mut material) = materials.get_mut(&ground.0) {
+            debug!("snow line {line:.0} m (the day's mean temperature {temperature:.1} °C)");
+            material.extension.snow_line_m = line;
+        }
+    }
 }
 
 /// Reads the DEM and builds the terrain mesh; a failure is logged and leaves flat ground.
