@@ -72,7 +72,7 @@ pub(crate) const BOARD: [Shot; 9] = [
     Shot {
         label: "sunset with shafts",
         viewpoint: Viewpoint::Bantiger,
-        time: "2021-05-03T18:15:00Z",
+        time: "2021-05-08T18:15:00Z",
         azimuth_deg: Some(285.0),
         ev100: 13.0,
         lift_m: 0.0,
