@@ -142,7 +142,22 @@ pub fn snow_fraction_at(temperature_c: f32, height_m: f32) -> f32 {
     if temperature.is_nan() {
         return 0.0;
     }
-    ((2.0 - temperature) / 2.0).clamp(0.0, 1.0)
+    ((ALL_RAIN_C - temperature) / (ALL_RAIN_C - ALL_SNOW_C)).clamp(0.0, 1.0)
+}
+
+/// Air temperature at and below which all precipitation is snow, °C ([`snow_fraction_at`]).
+const ALL_SNOW_C: f32 = 0.0;
+/// Air temperature at and above which all precipitation is rain, °C ([`snow_fraction_at`]).
+const ALL_RAIN_C: f32 = 2.0;
+
+/// The snow line: how far above a station that measures `temperature_c` °C at 2 m half of the
+/// precipitation falls as snow ([`snow_fraction_at`] is one half there), metres (negative when
+/// the station itself is colder). `None` for a temperature that is not finite.
+#[must_use]
+pub fn snow_line_height_m(temperature_c: f32) -> Option<f32> {
+    temperature_c
+        .is_finite()
+        .then(|| (temperature_c - 0.5 * (ALL_SNOW_C + ALL_RAIN_C)) / LAPSE_RATE_K_PER_M)
 }
 
 /// What falls at `rate_mm_per_h` (water equivalent) with `snow_fraction` (0–1) of it snow. See
@@ -456,6 +471,14 @@ mod tests {
         // 4 °C in the valley is rain; 600 m up it is 0.1 °C: nearly all snow.
         assert!((snow_fraction_at(4.0, 600.0) - 0.95).abs() < 1e-3);
         assert_eq!(snow_fraction_at(f32::NAN, 0.0), 0.0);
+        // The snow line is where the fraction is one half: 4 °C puts it about 460 m up.
+        for temperature in [-5.0_f32, 1.0, 4.0, 15.0] {
+            let line = snow_line_height_m(temperature).unwrap();
+            assert!((snow_fraction_at(temperature, line) - 0.5).abs() < 1e-4);
+        }
+        assert!((snow_line_height_m(4.0).unwrap() - 461.5).abs() < 0.1);
+        assert_eq!(snow_line_height_m(f32::NAN), None);
+        assert_eq!(snow_line_height_m(f32::INFINITY), None);
         // Monotone: colder or higher never melts the snow.
         let mut last = 0.0;
         for i in 0..100 {

@@ -37,9 +37,9 @@ pub(crate) struct LandCover {
     /// Linear albedo of snow: the terrain palette's.
     #[uniform(100)]
     snow: Vec4,
-    /// Height where snow is half-way in on level ground, metres above sea level: where the near
-    /// forecast's temperature falls to 1 °C by the standard lapse rate ([`follow_snow_line`]),
-    /// the terrain palette's until a forecast gives one.
+    /// Height where snow is half-way in on level ground, metres above sea level: the near
+    /// forecast's snow line ([`follow_snow_line`]), the terrain palette's until a forecast
+    /// gives one.
     #[uniform(100)]
     snow_line_m: f32,
     /// Width of the snow's transition around the snow line, metres: the terrain palette's.
@@ -49,15 +49,17 @@ pub(crate) struct LandCover {
 
 impl Default for LandCover {
     fn default() -> Self {
+        // The palette's own snow line: `terrain_settings` moves it off the mesh.
+        let palette = TerrainPalette::default();
         Self {
             field_size_m: 250.0,
             wood_share: 0.25,
             relief_m: 12.0,
             hedge_m: 8.0,
             wood: Vec4::from_array(terrain_settings().palette.forest),
-            snow: Vec4::from_array(TerrainPalette::default().snow),
-            snow_line_m: TerrainPalette::default().snow_line_m,
-            snow_transition_m: TerrainPalette::default().snow_transition_m,
+            snow: Vec4::from_array(palette.snow),
+            snow_line_m: palette.snow_line_m,
+            snow_transition_m: palette.snow_transition_m,
         }
     }
 }
@@ -83,23 +85,9 @@ pub(crate) fn terrain_settings() -> TerrainSettings {
 /// A snow line above every summit: the mesh's colours hold no snow.
 const NO_BAKED_SNOW_M: f32 = 100_000.0;
 
-/// Air temperature at which half of the precipitation falls as snow, °C: the middle of
-/// [`snow_fraction_at`](bevy_cloudscape::precipitation::snow_fraction_at)'s 0–2 °C ramp.
-const SNOW_HALF_C: f32 = 1.0;
-
 /// The smallest change of the snow line that updates the terrain's material, metres (each
 /// update uploads the material again).
 const SNOW_LINE_STEP_M: f32 = 5.0;
-
-/// The snow line for a 2 m temperature measured at Bern's ground: the height where the standard
-/// lapse rate brings the air to [`SNOW_HALF_C`], metres above sea level. `None` for a
-/// temperature that is not finite.
-fn snow_line_m(temperature_c: f32) -> Option<f32> {
-    temperature_c.is_finite().then(|| {
-        BERN_GROUND_M
-            + (temperature_c - SNOW_HALF_C) / bevy_cloudscape::precipitation::LAPSE_RATE_K_PER_M
-    })
-}
 
 /// The mean of the forecast's 2 m temperature over the day around `unix_seconds` (hourly
 /// samples from 12 hours before to 11 after), °C: snow on the ground follows the day's warmth,
@@ -135,7 +123,10 @@ pub(crate) fn follow_snow_line(
     else {
         return;
     };
-    let Some(line) = snow_line_m(temperature) else {
+    // Bern's ground is the forecast's station height.
+    let Some(line) =
+        bevy_cloudscape::precipitation::snow_line_height_m(temperature).map(|h| BERN_GROUND_M + h)
+    else {
         return;
     };
     for ground in &grounds {
